@@ -1,0 +1,207 @@
+//! Wire types of homcull: what crosses the network between the server and its clients.
+//!
+//! Everything here is plain data with serde derives, so the server, the CLI and the
+//! test clients agree on one shape. Geometry conventions (units, axes, what a pose
+//! means) are defined once in the server crate's `camera` module; this crate only
+//! carries the numbers.
+//!
+//! # Layout
+//! - [`Pose`]: a camera pose as clients send it.
+//! - [`CullOptions`], [`Method`], [`DebVariant`]: how to cull.
+//! - [`CullStats`], [`CullResponse`]: what a cull answers.
+
+use serde::{Deserialize, Serialize};
+
+/// Version of the wire protocol; bumped on every incompatible change.
+pub const PROTOCOL_VERSION: u32 = 1;
+
+/// A camera pose, as in DESIGN.md §3.
+///
+/// Orientation is either `rotation` (a unit quaternion `[x, y, z, w]`; the camera looks
+/// along its local −Z with +Y up, as a glTF camera) or `look_at` (a world point) with an
+/// optional `up` (default +Y). Giving both is an error; giving neither looks along −Z.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pose {
+    /// Eye position in metres, world space.
+    pub position: [f32; 3],
+    /// Orientation as a quaternion `[x, y, z, w]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<[f32; 4]>,
+    /// A world point the camera looks at.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub look_at: Option<[f32; 3]>,
+    /// Up vector used with `look_at`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees.
+    #[serde(default = "default_fov")]
+    pub fov_y_deg: f32,
+    /// Viewport `[width, height]` in pixels.
+    #[serde(default = "default_viewport")]
+    pub viewport: [u32; 2],
+    /// Near plane distance in metres.
+    #[serde(default = "default_near")]
+    pub near: f32,
+    /// Far plane distance in metres.
+    #[serde(default = "default_far")]
+    pub far: f32,
+}
+
+fn default_fov() -> f32 {
+    60.0
+}
+fn default_viewport() -> [u32; 2] {
+    [960, 540]
+}
+fn default_near() -> f32 {
+    0.1
+}
+fn default_far() -> f32 {
+    5000.0
+}
+
+impl Pose {
+    /// A pose at `position` looking at `target`, with the other fields at their defaults.
+    pub fn looking_at(position: [f32; 3], target: [f32; 3]) -> Self {
+        Pose {
+            position,
+            rotation: None,
+            look_at: Some(target),
+            up: None,
+            fov_y_deg: default_fov(),
+            viewport: default_viewport(),
+            near: default_near(),
+            far: default_far(),
+        }
+    }
+}
+
+/// Culling method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Hierarchical Occlusion Maps (the default).
+    #[default]
+    Hom,
+    /// Hierarchical z-buffer of the same occluders.
+    Hzb,
+    /// View-frustum culling only.
+    Frustum,
+    /// The exact ID-buffer oracle.
+    Exact,
+}
+
+impl Method {
+    /// All methods, in report order.
+    pub const ALL: [Method; 4] = [Method::Hom, Method::Hzb, Method::Frustum, Method::Exact];
+
+    /// The lowercase name used on the wire and the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Hom => "hom",
+            Method::Hzb => "hzb",
+            Method::Frustum => "frustum",
+            Method::Exact => "exact",
+        }
+    }
+}
+
+impl std::str::FromStr for Method {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| format!("unknown method `{s}` (expected hom, hzb, frustum or exact)"))
+    }
+}
+
+/// Depth estimation buffer variant (DESIGN.md §4, step 5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum DebVariant {
+    /// One plane at the farthest occluder bounding-box corner.
+    Plane,
+    /// Screen tiles holding the farthest bbox-corner depth of the occluders touching them.
+    Tiles,
+    /// Per-pixel depth of the rasterized occluders, max-reduced alongside the pyramid.
+    #[default]
+    Raster,
+}
+
+impl DebVariant {
+    /// All variants, in report order.
+    pub const ALL: [DebVariant; 3] = [DebVariant::Plane, DebVariant::Tiles, DebVariant::Raster];
+
+    /// The lowercase name used on the wire and the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            DebVariant::Plane => "plane",
+            DebVariant::Tiles => "tiles",
+            DebVariant::Raster => "raster",
+        }
+    }
+}
+
+impl std::str::FromStr for DebVariant {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        DebVariant::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| format!("unknown DEB variant `{s}` (expected plane, tiles or raster)"))
+    }
+}
+
+/// How to cull: the options a client may set per request.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CullOptions {
+    /// Culling method.
+    pub method: Method,
+    /// Opacity threshold O_0 at the finest pyramid level; 1.0 is conservative.
+    pub threshold: f32,
+    /// Depth estimation buffer variant used by `hom`.
+    pub deb: DebVariant,
+}
+
+impl Default for CullOptions {
+    fn default() -> Self {
+        CullOptions {
+            method: Method::Hom,
+            threshold: 1.0,
+            deb: DebVariant::Raster,
+        }
+    }
+}
+
+/// What one cull did, for clients and dashboards.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct CullStats {
+    /// Objects in the scene.
+    pub objects: u32,
+    /// Objects whose bounds intersect the view frustum.
+    pub candidates: u32,
+    /// Objects removed by the frustum test.
+    pub culled_by_frustum: u32,
+    /// In-frustum objects removed by the occlusion test.
+    pub culled_by_occlusion: u32,
+    /// Occluders rendered into the occlusion map.
+    pub occluders_used: u32,
+    /// Occluder triangles rendered (the runtime budget spent).
+    pub occluder_triangles: u32,
+    /// GPU (or CPU fallback) time of the batch this pose was part of, divided by its size.
+    pub gpu_ms: f64,
+    /// Wall time of the whole cull of this pose's batch, divided by its size.
+    pub total_ms: f64,
+}
+
+/// Answer to one pose: visible object IDs in ascending order and statistics.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct CullResponse {
+    /// IDs of the objects that may be visible, ascending.
+    pub visible: Vec<u32>,
+    /// What the cull did.
+    pub stats: CullStats,
+}

@@ -1,0 +1,220 @@
+//! Evaluation: every method against the exact oracle on the same poses.
+//!
+//! Counts are summed over poses (DESIGN.md §4): false culls are objects the oracle
+//! sees that a method culled; efficiency is the share of the oracle-hidden in-frustum
+//! objects a method culls; kept/oracle triangles is the over-draw. Timing is wall time
+//! per pose of whole batches (planning + GPU + readback), as p50/p95 over batches.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use homcull_proto::{CullOptions, DebVariant, Method};
+use serde::Serialize;
+
+use crate::camera::Camera;
+use crate::cull::CullError;
+use crate::engine::Engine;
+use crate::pvs::Pvs;
+
+/// One method to evaluate, with the name it is reported under.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MethodSpec {
+    pub name: String,
+    pub options: CullOptions,
+}
+
+impl MethodSpec {
+    /// Parses `hom`, `hom-plane`, `hom-tiles`, `hom-raster`, `hzb`, `frustum`, `exact`;
+    /// `threshold` and `deb` are the defaults for plain `hom`.
+    pub fn parse(s: &str, threshold: f32, deb: DebVariant) -> Result<Self, String> {
+        let (method, deb) = match s.split_once('-') {
+            Some(("hom", v)) => (Method::Hom, v.parse::<DebVariant>()?),
+            Some(_) => return Err(format!("unknown method `{s}`")),
+            None => (s.parse::<Method>()?, deb),
+        };
+        Ok(MethodSpec {
+            name: s.to_string(),
+            options: CullOptions { method, threshold, deb },
+        })
+    }
+}
+
+#[derive(Debug, Clone, Default, Serialize, PartialEq)]
+pub struct Percentiles {
+    pub p50: f64,
+    pub p95: f64,
+}
+
+impl Percentiles {
+    pub fn of(mut v: Vec<f64>) -> Self {
+        if v.is_empty() {
+            return Percentiles::default();
+        }
+        v.sort_by(f64::total_cmp);
+        let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+        Percentiles { p50: at(0.5), p95: at(0.95) }
+    }
+}
+
+/// Quality and speed of one method, summed over poses.
+#[derive(Debug, Clone, Default, Serialize, PartialEq)]
+pub struct MethodReport {
+    pub false_culls: u64,
+    pub in_frustum: u64,
+    pub oracle_visible: u64,
+    pub oracle_hidden: u64,
+    pub culled_hidden: u64,
+    pub efficiency: f64,
+    pub kept_triangles: u64,
+    pub oracle_triangles: u64,
+    pub ms_per_pose: Percentiles,
+    /// Objects kept that the scene's own PVS proves hidden (OpenArena maps only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kept_pvs_hidden: Option<u64>,
+}
+
+/// The oracle checked against the map's own PVS.
+#[derive(Debug, Clone, Default, Serialize, PartialEq)]
+pub struct PvsCheck {
+    /// Poses whose eye lies in a non-solid cluster (the only ones checked).
+    pub poses_checked: u64,
+    /// Objects the oracle saw that the PVS says cannot be seen (must be 0).
+    pub oracle_outside_pvs: u64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct EvalReport {
+    pub scene: String,
+    pub objects: u64,
+    pub triangles: u64,
+    pub viewport: [u32; 2],
+    pub adapter: String,
+    pub poses: u64,
+    pub batch: usize,
+    pub methods: BTreeMap<String, MethodReport>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pvs: Option<PvsCheck>,
+}
+
+/// Runs the oracle and every method on `cams` in batches of `batch`.
+pub fn evaluate(engine: &mut Engine, cams: &[Camera], methods: &[MethodSpec], batch: usize, pvs: Option<&Pvs>) -> Result<EvalReport, CullError> {
+    let batch = batch.max(1);
+    let exact = MethodSpec {
+        name: "exact".into(),
+        options: CullOptions { method: Method::Exact, ..Default::default() },
+    };
+    let run = |engine: &mut Engine, spec: &MethodSpec| -> Result<(Vec<Vec<u32>>, Vec<f64>), CullError> {
+        let settings = engine.settings(spec.options);
+        let mut visible = Vec::with_capacity(cams.len());
+        let mut ms = Vec::new();
+        for chunk in cams.chunks(batch) {
+            let t = Instant::now();
+            let res = engine.cull(chunk, &settings)?;
+            ms.push(t.elapsed().as_secs_f64() * 1e3 / chunk.len() as f64);
+            visible.extend(res.into_iter().map(|r| r.visible));
+        }
+        Ok((visible, ms))
+    };
+    // Warm-up: the first batch pays for pipeline and target creation.
+    if let Some(c) = cams.first() {
+        let s = engine.settings(CullOptions::default());
+        engine.cull(std::slice::from_ref(c), &s)?;
+    }
+    let (oracle, oracle_ms) = run(engine, &exact)?;
+    let frustum_spec = MethodSpec {
+        name: "frustum".into(),
+        options: CullOptions { method: Method::Frustum, ..Default::default() },
+    };
+    let (in_frustum, _) = run(engine, &frustum_spec)?;
+
+    let clusters: Vec<i32> = cams.iter().map(|c| pvs.map_or(-1, |p| p.cluster_at(c.position))).collect();
+
+    let mut reports = BTreeMap::new();
+    let mut all = methods.to_vec();
+    if !all.iter().any(|m| m.name == "exact") {
+        all.push(exact.clone());
+    }
+    for spec in &all {
+        let (visible, ms) = if spec.options.method == Method::Exact {
+            (oracle.clone(), oracle_ms.clone())
+        } else {
+            run(engine, spec)?
+        };
+        let scene = &engine.prepared.scene;
+        let tri = |ids: &[u32]| -> u64 { ids.iter().map(|&i| scene.objects[i as usize].triangles() as u64).sum() };
+        let mut r = MethodReport {
+            ms_per_pose: Percentiles::of(ms),
+            ..Default::default()
+        };
+        let mut kept_pvs_hidden = 0;
+        for k in 0..cams.len() {
+            let (o, v, f) = (&oracle[k], &visible[k], &in_frustum[k]);
+            let kept: std::collections::HashSet<u32> = v.iter().copied().collect();
+            r.false_culls += o.iter().filter(|id| !kept.contains(id)).count() as u64;
+            r.in_frustum += f.len() as u64;
+            r.oracle_visible += o.len() as u64;
+            let hidden = f.len() - o.len();
+            r.oracle_hidden += hidden as u64;
+            // Culled hidden: in-frustum, not seen by the oracle, not kept.
+            let seen: std::collections::HashSet<u32> = o.iter().copied().collect();
+            r.culled_hidden += f.iter().filter(|id| !seen.contains(id) && !kept.contains(id)).count() as u64;
+            r.kept_triangles += tri(v);
+            r.oracle_triangles += tri(o);
+            if let (Some(p), c) = (pvs, clusters[k])
+                && c >= 0
+            {
+                kept_pvs_hidden += v.iter().filter(|&&id| !p.may_see(c, id)).count() as u64;
+            }
+        }
+        r.efficiency = if r.oracle_hidden > 0 { r.culled_hidden as f64 / r.oracle_hidden as f64 } else { 1.0 };
+        if pvs.is_some() {
+            r.kept_pvs_hidden = Some(kept_pvs_hidden);
+        }
+        reports.insert(spec.name.clone(), r);
+    }
+    let pvs_check = pvs.map(|p| {
+        let mut check = PvsCheck::default();
+        for (k, &c) in clusters.iter().enumerate() {
+            if c >= 0 {
+                check.poses_checked += 1;
+                check.oracle_outside_pvs += oracle[k].iter().filter(|&&id| !p.may_see(c, id)).count() as u64;
+            }
+        }
+        check
+    });
+    let scene = &engine.prepared.scene;
+    Ok(EvalReport {
+        scene: scene.name.clone(),
+        objects: scene.objects.len() as u64,
+        triangles: scene.triangle_count(),
+        viewport: cams.first().map_or([0, 0], |c| [c.width, c.height]),
+        adapter: engine.adapter(),
+        poses: cams.len() as u64,
+        batch,
+        methods: reports,
+        pvs: pvs_check,
+    })
+}
+
+/// A readable table of a report.
+pub fn table(r: &EvalReport) -> String {
+    let mut s = format!(
+        "scene {} — {} objects, {} triangles, {}x{}, {} poses (batch {}), adapter: {}\n",
+        r.scene, r.objects, r.triangles, r.viewport[0], r.viewport[1], r.poses, r.batch, r.adapter
+    );
+    s += &format!(
+        "{:<12} {:>11} {:>10} {:>10} {:>12} {:>10} {:>10}\n",
+        "method", "false culls", "efficiency", "kept/orcl", "in frustum", "ms p50", "ms p95"
+    );
+    for (name, m) in &r.methods {
+        let over = if m.oracle_triangles > 0 { m.kept_triangles as f64 / m.oracle_triangles as f64 } else { 1.0 };
+        s += &format!(
+            "{:<12} {:>11} {:>10.3} {:>10.2} {:>12} {:>10.2} {:>10.2}\n",
+            name, m.false_culls, m.efficiency, over, m.in_frustum, m.ms_per_pose.p50, m.ms_per_pose.p95
+        );
+    }
+    if let Some(p) = &r.pvs {
+        s += &format!("PVS check: {} poses in a cluster, {} oracle-visible objects outside the PVS\n", p.poses_checked, p.oracle_outside_pvs);
+    }
+    s
+}

@@ -1,0 +1,391 @@
+//! [`GpuBackend`]: all passes of a batch of poses in one submission, one readback.
+//!
+//! Poses are processed in groups of up to [`MAX_SLOTS`] that share per-slot targets
+//! (a texture array layer and a pyramid region per pose), so memory stays bounded
+//! however large the batch: group g's raster, pyramid and test passes are recorded
+//! before group g+1's, and wgpu orders them. Every pose writes its own region of one
+//! visibility bitmask, copied back once at the end.
+
+use std::sync::Arc;
+
+use homcull_proto::Method;
+use wgpu::util::DeviceExt;
+
+use super::oracle::OraclePass;
+use super::pyramid::{LevelParams, PyramidPass};
+use super::raster::{DEPTH_FORMAT, ID_FORMAT, OCCLUSION_FORMAT, RasterKind, RasterPass};
+use super::scene_buffers::SceneBuffers;
+use super::test_pass::{GroupParams, TestConfig, TestPass};
+use super::{GpuContext, GpuError, UNIFORM_SLOT, slotted};
+use crate::camera::PoseUniform;
+use crate::cull::{CullError, CullSettings, Culler, PosePlan, PreparedScene, words_per_pose};
+use crate::hom::level_thresholds;
+use crate::hom::pyramid::LevelLayout;
+
+/// Most poses sharing the per-slot targets at once.
+pub const MAX_SLOTS: u32 = 16;
+/// Memory the per-slot targets may take, bytes; fewer slots at large viewports.
+const SLOT_MEMORY_BUDGET: u64 = 256 << 20;
+
+/// Per-slot render targets and pyramid buffers for one viewport size.
+struct SlotTargets {
+    width: u32,
+    height: u32,
+    slots: u32,
+    layout: LevelLayout,
+    occlusion: wgpu::Texture,
+    ids: wgpu::Texture,
+    depth_view: wgpu::TextureView,
+    occlusion_layers: Vec<wgpu::TextureView>,
+    id_layers: Vec<wgpu::TextureView>,
+    opacity: wgpu::Buffer,
+    pyramid_depth: wgpu::Buffer,
+}
+
+impl SlotTargets {
+    fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
+        let layout = LevelLayout::new(width, height);
+        let per_slot = (width as u64 * height as u64) * 8 + layout.total as u64 * 8;
+        let slots = (SLOT_MEMORY_BUDGET / per_slot).clamp(1, MAX_SLOTS as u64) as u32;
+        let tex = |label, format| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: slots,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            })
+        };
+        let occlusion = tex("occlusion raster", OCCLUSION_FORMAT);
+        let ids = tex("oracle ids", ID_FORMAT);
+        let depth = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("depth"),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        let layers = |t: &wgpu::Texture| -> Vec<wgpu::TextureView> {
+            (0..slots)
+                .map(|l| {
+                    t.create_view(&wgpu::TextureViewDescriptor {
+                        dimension: Some(wgpu::TextureViewDimension::D2),
+                        base_array_layer: l,
+                        array_layer_count: Some(1),
+                        ..Default::default()
+                    })
+                })
+                .collect()
+        };
+        let buf = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: layout.total as u64 * slots as u64 * 4,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        SlotTargets {
+            width,
+            height,
+            slots,
+            occlusion_layers: layers(&occlusion),
+            id_layers: layers(&ids),
+            depth_view: depth.create_view(&Default::default()),
+            opacity: buf("pyramid opacity"),
+            pyramid_depth: buf("pyramid depth"),
+            layout,
+            occlusion,
+            ids,
+        }
+    }
+
+    fn array_view(t: &wgpu::Texture) -> wgpu::TextureView {
+        t.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        })
+    }
+}
+
+/// The GPU culler of one scene: pipelines, scene buffers and reusable targets.
+pub struct GpuBackend {
+    ctx: Arc<GpuContext>,
+    scene: SceneBuffers,
+    raster: RasterPass,
+    pyramid: PyramidPass,
+    test: TestPass,
+    oracle: OraclePass,
+    targets: Option<SlotTargets>,
+    /// `(first_index, index_count)` of every object, for draw calls.
+    draws: Vec<(u32, u32)>,
+}
+
+fn storage(device: &wgpu::Device, label: &str, bytes: &[u8], extra: wgpu::BufferUsages) -> wgpu::Buffer {
+    let fallback = [0u8; 16];
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: if bytes.is_empty() { &fallback } else { bytes },
+        usage: wgpu::BufferUsages::STORAGE | extra,
+    })
+}
+
+impl GpuBackend {
+    pub fn new(ctx: Arc<GpuContext>, prep: &PreparedScene) -> Self {
+        GpuBackend {
+            scene: SceneBuffers::new(&ctx.device, &prep.scene),
+            raster: RasterPass::new(&ctx),
+            pyramid: PyramidPass::new(&ctx),
+            test: TestPass::new(&ctx),
+            oracle: OraclePass::new(&ctx),
+            targets: None,
+            draws: prep.scene.objects.iter().map(|o| (o.first_index, o.index_count)).collect(),
+            ctx,
+        }
+    }
+
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    fn targets(&mut self, width: u32, height: u32) -> &SlotTargets {
+        if self.targets.as_ref().is_none_or(|t| (t.width, t.height) != (width, height)) {
+            self.targets = Some(SlotTargets::new(&self.ctx.device, width, height));
+        }
+        self.targets.as_ref().expect("just created")
+    }
+
+    /// Reads back a buffer region (blocking); used for the bitmask and by tests.
+    pub fn read_buffer(&self, encoder: wgpu::CommandEncoder, src: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
+        let device = &self.ctx.device;
+        let staging = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = encoder;
+        encoder.copy_buffer_to_buffer(src, 0, &staging, 0, size);
+        self.ctx.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let data = staging
+            .slice(..)
+            .get_mapped_range()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .to_vec();
+        staging.unmap();
+        Ok(data)
+    }
+
+    /// Runs the occluder raster and pyramid of one group of plans and returns the
+    /// opacity and depth pyramids (slot-strided). For GPU-vs-CPU tests.
+    pub fn pyramids(&mut self, plans: &[PosePlan], s: &CullSettings) -> Result<(Vec<f32>, Vec<f32>), GpuError> {
+        self.record_and_read(plans, s, true)?;
+        let t = self.targets.as_ref().expect("targets exist after a batch");
+        let size = t.layout.total as u64 * plans.len() as u64 * 4;
+        let enc = self.ctx.device.create_command_encoder(&Default::default());
+        let opacity = self.read_buffer(enc, &t.opacity, size)?;
+        let enc = self.ctx.device.create_command_encoder(&Default::default());
+        let depth = self.read_buffer(enc, &t.pyramid_depth, size)?;
+        Ok((bytemuck::cast_slice(&opacity).to_vec(), bytemuck::cast_slice(&depth).to_vec()))
+    }
+
+    fn record_and_read(&mut self, plans: &[PosePlan], s: &CullSettings, single_group: bool) -> Result<Vec<Vec<u32>>, GpuError> {
+        let (w, h) = (plans[0].cam.width, plans[0].cam.height);
+        self.targets(w, h);
+        let t = self.targets.as_ref().expect("targets exist");
+        let device = &self.ctx.device;
+        let p_count = plans.len() as u32;
+        let slots = if single_group { p_count.min(t.slots) } else { t.slots };
+        let words = words_per_pose(self.draws.len()) as u32;
+        let exact = s.options.method == Method::Exact;
+
+        let pose_uniforms: Vec<PoseUniform> = plans.iter().map(|p| PoseUniform::new(&p.cam, p.deb.depth[0])).collect();
+        let poses = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("poses"),
+            contents: &slotted(&pose_uniforms),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE,
+        });
+        let pose_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pose"),
+            layout: &self.raster.pose_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &poses,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(UNIFORM_SLOT),
+                }),
+            }],
+        });
+        let mask = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("visibility mask"),
+            size: (p_count * words) as u64 * 4,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+
+        // Groups of poses sharing the slots, and their candidate ranges.
+        let groups: Vec<(u32, u32)> = (0..p_count).step_by(slots as usize).map(|a| (a, (a + slots).min(p_count))).collect();
+        let mut candidates: Vec<[u32; 2]> = Vec::new();
+        let mut group_params = Vec::new();
+        for &(a, b) in &groups {
+            let start = candidates.len() as u32;
+            for p in a..b {
+                candidates.extend(plans[p as usize].test_boxes.iter().map(|&bx| [p, bx]));
+            }
+            let count = candidates.len() as u32 - start;
+            group_params.push(if exact {
+                GroupParams { a: w, b: h, c: words, d: a }
+            } else {
+                GroupParams { a: start, b: count, c: a, d: 0 }
+            });
+        }
+        let group_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("group params"),
+            contents: &slotted(&group_params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        fn dyn_uniform(buffer: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
+            wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer,
+                offset: 0,
+                size: wgpu::BufferSize::new(16),
+            })
+        }
+        let mut encoder = device.create_command_encoder(&Default::default());
+
+        if exact {
+            let ids_view = SlotTargets::array_view(&t.ids);
+            let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("oracle"),
+                layout: &self.oracle.layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: dyn_uniform(&group_buf) },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&ids_view) },
+                    wgpu::BindGroupEntry { binding: 2, resource: mask.as_entire_binding() },
+                ],
+            });
+            for (g, &(a, b)) in groups.iter().enumerate() {
+                for p in a..b {
+                    let plan = &plans[p as usize];
+                    let objs = &self.draws;
+                    let draws = plan.candidates.iter().map(|&id| {
+                        let o = &objs[id as usize];
+                        (o.0, o.1, id)
+                    });
+                    self.raster.record(&mut encoder, RasterKind::ObjectIds, &t.id_layers[(p - a) as usize], &t.depth_view, &pose_bg, p, &self.scene, draws);
+                }
+                self.oracle.record(&mut encoder, &bg, g as u32, w, h, b - a);
+            }
+        } else {
+            let level_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("level params"),
+                contents: &slotted(&LevelParams::for_layout(&t.layout)),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let occlusion_view = SlotTargets::array_view(&t.occlusion);
+            let pyr_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("pyramid"),
+                layout: &self.pyramid.layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &level_params,
+                            offset: 0,
+                            size: wgpu::BufferSize::new(std::mem::size_of::<LevelParams>() as u64),
+                        }),
+                    },
+                    wgpu::BindGroupEntry { binding: 1, resource: t.opacity.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: t.pyramid_depth.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&occlusion_view) },
+                ],
+            });
+            let deb0 = &plans[0].deb;
+            let cfg = TestConfig::new(
+                s.options.method,
+                s.options.deb,
+                &t.layout,
+                &level_thresholds(s.options.threshold, t.layout.levels()),
+                deb0.tile,
+                deb0.cols,
+                deb0.rows,
+                words,
+            );
+            let cfg_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("test config"),
+                contents: bytemuck::bytes_of(&cfg),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let deb_tiles: Vec<f32> = plans.iter().flat_map(|p| p.deb.depth.iter().copied()).collect();
+            let cand_buf = storage(device, "candidates", bytemuck::cast_slice(&candidates), wgpu::BufferUsages::empty());
+            let deb_buf = storage(device, "deb tiles", bytemuck::cast_slice(&deb_tiles), wgpu::BufferUsages::empty());
+            let test_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("test"),
+                layout: &self.test.layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: cfg_buf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: dyn_uniform(&group_buf) },
+                    wgpu::BindGroupEntry { binding: 2, resource: poses.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 3, resource: self.scene.boxes.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 4, resource: cand_buf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 5, resource: deb_buf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 6, resource: t.opacity.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 7, resource: t.pyramid_depth.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 8, resource: mask.as_entire_binding() },
+                ],
+            });
+            for (g, &(a, b)) in groups.iter().enumerate() {
+                for p in a..b {
+                    let plan = &plans[p as usize];
+                    let objs = &self.draws;
+                    let draws = plan.occluders.ids.iter().map(|&id| {
+                        let o = &objs[id as usize];
+                        (o.0, o.1, id)
+                    });
+                    self.raster.record(&mut encoder, RasterKind::OccluderDepth, &t.occlusion_layers[(p - a) as usize], &t.depth_view, &pose_bg, p, &self.scene, draws);
+                }
+                self.pyramid.record(&mut encoder, &pyr_bg, &t.layout, b - a);
+                self.test.record(&mut encoder, &test_bg, g as u32, group_params[g].b);
+            }
+        }
+        let bytes = self.read_buffer(encoder, &mask, (p_count * words) as u64 * 4)?;
+        let all: &[u32] = bytemuck::cast_slice(&bytes);
+        Ok(all.chunks_exact(words as usize).map(|c| c.to_vec()).collect())
+    }
+}
+
+impl Culler for GpuBackend {
+    fn describe(&self) -> String {
+        self.ctx.describe()
+    }
+
+    fn visibility(&mut self, _prep: &PreparedScene, plans: &[PosePlan], s: &CullSettings) -> Result<Vec<Vec<u32>>, CullError> {
+        if plans.is_empty() {
+            return Ok(Vec::new());
+        }
+        Ok(self.record_and_read(plans, s, false)?)
+    }
+}

@@ -1,0 +1,154 @@
+//! GPU backend on wgpu: headless device, one file per pass.
+//!
+//! - [`GpuContext`]: adapter, device and queue (honours `WGPU_*` environment variables).
+//! - [`scene_buffers`]: a scene's vertices, indices and test boxes, uploaded once.
+//! - [`raster`]: occluder raster (view depth) and oracle raster (object IDs), sharing
+//!   one invariant vertex stage.
+//! - [`pyramid`]: level 0 and the 2×2 reductions (compute).
+//! - [`test_pass`]: the per-object HOM / HZB test (compute), writing a bitmask.
+//! - [`oracle`]: ID buffer → visibility bitmask (compute).
+//! - [`batch`]: [`GpuBackend`], which records all passes of a batch of poses into one
+//!   submission with one readback.
+//!
+//! Every pass has a CPU twin in `hom/`; tests run both on the same input.
+
+pub mod batch;
+pub mod oracle;
+pub mod pyramid;
+pub mod raster;
+pub mod scene_buffers;
+pub mod test_pass;
+
+pub use batch::GpuBackend;
+
+/// Why the GPU could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("no GPU adapter found: {0}")]
+    NoAdapter(String),
+    #[error("could not open the GPU device: {0}")]
+    Device(String),
+    #[error("GPU readback failed: {0}")]
+    Readback(String),
+}
+
+/// The wgpu device and queue homcull renders with.
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+}
+
+impl GpuContext {
+    /// Opens the adapter chosen by `WGPU_ADAPTER_NAME` / `WGPU_BACKEND` /
+    /// `WGPU_POWER_PREF`, or the default one.
+    pub fn new() -> Result<Self, GpuError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        if std::env::var_os("WGPU_BACKEND").is_none() {
+            // Vulkan/Metal/DX12 only: GL lacks what the passes need and its probe is noisy.
+            desc.backends = wgpu::Backends::PRIMARY;
+        }
+        let instance = wgpu::Instance::new(desc);
+        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(&instance, None))
+            .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        if limits.max_storage_buffers_per_shader_stage < 8 {
+            return Err(GpuError::NoAdapter(format!(
+                "adapter {} allows {} storage buffers per stage, homcull needs 8",
+                info.name, limits.max_storage_buffers_per_shader_stage
+            )));
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("homcull"),
+            required_limits: limits,
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device(e.to_string()))?;
+        Ok(GpuContext { device, queue, info })
+    }
+
+    /// A one-line description: adapter name and backend.
+    pub fn describe(&self) -> String {
+        format!("{} ({:?}, {:?})", self.info.name, self.info.backend, self.info.device_type)
+    }
+
+    /// Compiles a kernel with the shared definitions of `common.wgsl` prepended.
+    pub fn shader(&self, label: &str, source: &str) -> wgpu::ShaderModule {
+        let code = format!("{}\n{}", include_str!("shaders/common.wgsl"), source);
+        self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(code.into()),
+        })
+    }
+}
+
+/// Opens a GPU if one exists. With `HOMCULL_REQUIRE_GPU=1` a missing adapter is an
+/// error; otherwise it is a warning and the CPU reference takes over.
+pub fn open_gpu() -> Result<Option<GpuContext>, GpuError> {
+    match GpuContext::new() {
+        Ok(ctx) => Ok(Some(ctx)),
+        Err(e) if require_gpu() => Err(e),
+        Err(e) => {
+            tracing::warn!("{e}; falling back to the CPU reference implementation (slow)");
+            Ok(None)
+        }
+    }
+}
+
+/// Whether `HOMCULL_REQUIRE_GPU` asks for a real adapter.
+pub fn require_gpu() -> bool {
+    std::env::var("HOMCULL_REQUIRE_GPU").is_ok_and(|v| v == "1" || v.eq_ignore_ascii_case("true"))
+}
+
+pub(crate) fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+pub(crate) fn uniform_entry(binding: u32, dynamic: bool, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: dynamic,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+pub(crate) fn texture_array_entry(binding: u32, sample_type: wgpu::TextureSampleType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type,
+            view_dimension: wgpu::TextureViewDimension::D2Array,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// Uniform slots are 256 bytes apart (the dynamic-offset alignment every adapter accepts).
+pub const UNIFORM_SLOT: u64 = 256;
+
+/// Packs `items` into 256-byte slots for dynamic-offset binding.
+pub(crate) fn slotted<T: bytemuck::Pod>(items: &[T]) -> Vec<u8> {
+    let mut out = vec![0u8; items.len().max(1) * UNIFORM_SLOT as usize];
+    for (i, it) in items.iter().enumerate() {
+        let b = bytemuck::bytes_of(it);
+        out[i * UNIFORM_SLOT as usize..][..b.len()].copy_from_slice(b);
+    }
+    out
+}

@@ -1,0 +1,148 @@
+//! Occluder raster and oracle ID raster.
+//!
+//! Both draw scene triangles with the same vertex stage (`raster.wgsl`, `@invariant`
+//! position) and the same reversed-Z depth test, so a pixel an occluder covers in the
+//! occlusion map is a pixel it covers in the oracle's ID buffer: HOM's coverage and the
+//! ground truth never disagree by rasterization. The occluder raster writes the view
+//! depth of the nearest occluder per pixel (0 = uncovered) to an `r32float` target;
+//! the oracle writes the nearest object's ID to an `r32uint` target.
+
+use super::{GpuContext, UNIFORM_SLOT, uniform_entry};
+
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub const OCCLUSION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+pub const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
+/// Cleared ID: no object at this pixel.
+pub const NO_OBJECT: u32 = u32::MAX;
+
+/// What a raster pass writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RasterKind {
+    OccluderDepth,
+    ObjectIds,
+}
+
+/// The two raster pipelines and their pose binding.
+pub struct RasterPass {
+    pub pose_layout: wgpu::BindGroupLayout,
+    depth_pipeline: wgpu::RenderPipeline,
+    id_pipeline: wgpu::RenderPipeline,
+}
+
+impl RasterPass {
+    pub fn new(ctx: &GpuContext) -> Self {
+        let device = &ctx.device;
+        let module = ctx.shader("raster", include_str!("shaders/raster.wgsl"));
+        let pose_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("pose"),
+            entries: &[uniform_entry(0, true, wgpu::ShaderStages::VERTEX)],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("raster"),
+            bind_group_layouts: &[Some(&pose_layout)],
+            immediate_size: 0,
+        });
+        let pipeline = |fs: &str, format: wgpu::TextureFormat| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(fs),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(wgpu::VertexBufferLayout {
+                        array_stride: 12,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+                    })],
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Greater),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &[Some(format.into())],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        RasterPass {
+            depth_pipeline: pipeline("fs_depth", OCCLUSION_FORMAT),
+            id_pipeline: pipeline("fs_id", ID_FORMAT),
+            pose_layout,
+        }
+    }
+
+    /// Records one pose's raster into `target` (one array layer). `draws` are
+    /// `(first_index, index_count, object_id)`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        kind: RasterKind,
+        target: &wgpu::TextureView,
+        depth: &wgpu::TextureView,
+        poses: &wgpu::BindGroup,
+        pose_index: u32,
+        scene: &super::scene_buffers::SceneBuffers,
+        draws: impl Iterator<Item = (u32, u32, u32)>,
+    ) {
+        let clear = match kind {
+            RasterKind::OccluderDepth => wgpu::Color::TRANSPARENT,
+            RasterKind::ObjectIds => wgpu::Color {
+                r: NO_OBJECT as f64,
+                g: 0.0,
+                b: 0.0,
+                a: 0.0,
+            },
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("raster"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(clear),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(match kind {
+            RasterKind::OccluderDepth => &self.depth_pipeline,
+            RasterKind::ObjectIds => &self.id_pipeline,
+        });
+        pass.set_bind_group(0, poses, &[(pose_index as u64 * UNIFORM_SLOT) as u32]);
+        pass.set_vertex_buffer(0, scene.vertices.slice(..));
+        pass.set_index_buffer(scene.indices.slice(..), wgpu::IndexFormat::Uint32);
+        for (first, count, id) in draws {
+            if count > 0 {
+                pass.draw_indexed(first..first + count, 0, id..id + 1);
+            }
+        }
+    }
+}

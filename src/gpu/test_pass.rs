@@ -1,0 +1,119 @@
+//! Per-object test pass: one invocation per (pose, test box), HOM or HZB, writing
+//! one visibility bit per object and pose. CPU twin: `hom/test.rs`.
+
+use homcull_proto::{DebVariant, Method};
+
+use super::{GpuContext, UNIFORM_SLOT, storage_entry, uniform_entry};
+use crate::hom::{MAX_LEVELS, pyramid::LevelLayout};
+
+/// `TestConfig` in `test.wgsl`: what is the same for every pose of a batch.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TestConfig {
+    pub levels: u32,
+    pub method: u32,
+    pub deb: u32,
+    pub deb_tile: u32,
+    pub deb_cols: u32,
+    pub deb_rows: u32,
+    pub words_per_pose: u32,
+    pub slot_stride: u32,
+    pub dims: [[u32; 4]; MAX_LEVELS],
+    pub thresholds: [[f32; 4]; MAX_LEVELS],
+}
+
+impl TestConfig {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(method: Method, deb: DebVariant, layout: &LevelLayout, thresholds: &[f32], deb_tile: u32, deb_cols: u32, deb_rows: u32, words_per_pose: u32) -> Self {
+        let mut dims = [[0; 4]; MAX_LEVELS];
+        let mut thr = [[0.0; 4]; MAX_LEVELS];
+        for l in 0..layout.levels() {
+            dims[l] = [layout.dims[l].0, layout.dims[l].1, layout.offsets[l], 0];
+            thr[l][0] = thresholds[l];
+        }
+        TestConfig {
+            levels: layout.levels() as u32,
+            method: (method == Method::Hzb) as u32,
+            deb: match deb {
+                DebVariant::Plane => 0,
+                DebVariant::Tiles => 1,
+                DebVariant::Raster => 2,
+            },
+            deb_tile,
+            deb_cols,
+            deb_rows,
+            words_per_pose,
+            slot_stride: layout.total,
+            dims,
+            thresholds: thr,
+        }
+    }
+}
+
+/// `GroupParams` in `test.wgsl` (also used by the oracle collect pass).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GroupParams {
+    pub a: u32,
+    pub b: u32,
+    pub c: u32,
+    pub d: u32,
+}
+
+pub struct TestPass {
+    pub layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::ComputePipeline,
+}
+
+/// Workgroup size of the test kernel.
+const WG: u32 = 64;
+/// Most workgroups in one dispatch dimension.
+const MAX_DIM: u32 = 65_535;
+
+impl TestPass {
+    pub fn new(ctx: &GpuContext) -> Self {
+        let module = ctx.shader("test", include_str!("shaders/test.wgsl"));
+        let entries: Vec<_> = [
+            uniform_entry(0, false, wgpu::ShaderStages::COMPUTE),
+            uniform_entry(1, true, wgpu::ShaderStages::COMPUTE),
+        ]
+        .into_iter()
+        .chain((2..=7).map(|b| storage_entry(b, true)))
+        .chain([storage_entry(8, false)])
+        .collect();
+        let layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("test"),
+            entries: &entries,
+        });
+        let pl = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("test"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("test"),
+            layout: Some(&pl),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        TestPass { layout, pipeline }
+    }
+
+    /// Records the test of `count` candidates of group `group` (its params slot).
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, bind_group: &wgpu::BindGroup, group: u32, count: u32) {
+        if count == 0 {
+            return;
+        }
+        let groups = count.div_ceil(WG);
+        let (x, y) = if groups <= MAX_DIM { (groups, 1) } else { (MAX_DIM, groups.div_ceil(MAX_DIM)) };
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("object test"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, bind_group, &[(group as u64 * UNIFORM_SLOT) as u32]);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+}

@@ -1,0 +1,36 @@
+//! homcull: a networked occlusion-culling server.
+//!
+//! It keeps a 3D scene and its occluder database resident, takes camera poses, runs
+//! Hierarchical Occlusion Maps (Zhang et al. 1997) on a headless wgpu device, and
+//! answers with the IDs of the objects that may be visible. Conservative by default:
+//! with opacity threshold 1.0 it never culls an object the exact ID-buffer oracle sees.
+//!
+//! # Layout
+//! - [`geom`]: boxes and planes.
+//! - [`camera`]: poses, projection, frustum, box → screen rect; all conventions.
+//! - [`scene`]: glTF loading, objects, test boxes (sub-bounds), the demo city.
+//! - [`bvh`]: object BVH (obvhs) with frustum traversal.
+//! - [`occluders`]: occluder database and runtime selection.
+//! - [`hom`]: the algorithm on the CPU (raster, pyramid, DEB, object test): the
+//!   reference for the GPU and the fallback without one.
+//! - [`gpu`]: the same passes on wgpu, batched.
+//! - [`cull`]: the `Culler` trait, per-pose planning, methods frustum/hom/hzb/exact.
+//! - [`engine`]: a prepared scene with its backend (GPU, or CPU fallback).
+//! - [`eval`]: runs methods against the oracle and aggregates quality and timing.
+//! - [`sampler`]: random poses where a person would stand.
+//! - [`pvs`]: the OpenArena maps' own potentially-visible sets, an independent check.
+//! - [`config`]: the command line.
+
+pub mod bvh;
+pub mod camera;
+pub mod config;
+pub mod cull;
+pub mod engine;
+pub mod eval;
+pub mod geom;
+pub mod gpu;
+pub mod hom;
+pub mod occluders;
+pub mod pvs;
+pub mod sampler;
+pub mod scene;
