@@ -189,9 +189,7 @@ impl Camera {
         if farthest < self.near {
             return None;
         }
-        if nearest > self.near {
-            // every corner in front: nothing to clip
-        } else {
+        if corners.iter().any(|v| -v.z < self.near) {
             nearest = self.near;
             for (a, c) in BOX_EDGES {
                 let (va, vc) = (corners[a], corners[c]);
@@ -391,6 +389,17 @@ mod tests {
         assert_eq!(r.near, c.near);
         // Box behind the camera projects to nothing.
         assert!(c.project_box(&Aabb::new(Vec3::new(-1.0, -1.0, 11.0), Vec3::new(1.0, 1.0, 12.0))).is_none());
+    }
+
+    #[test]
+    fn box_with_one_corner_in_front_spans_the_clip_points() {
+        // Flat ground box around the camera, only one corner ahead of it: the clipped
+        // polygon spans the whole screen width.
+        let c = look_at(Vec3::new(0.0, 1.7, 0.0), Vec3::new(-1.0, 1.6, 0.0), 960, 540);
+        let b = Aabb::new(Vec3::new(-10.0, 0.0, -30.0), Vec3::new(60.0, 0.0, 40.0));
+        let r = c.project_box(&b).unwrap();
+        assert_eq!((r.x0, r.x1), (0, 960));
+        assert_eq!(r.near, c.near);
     }
 
     #[test]

@@ -150,7 +150,11 @@ pub fn evaluate(engine: &mut Engine, cams: &[Camera], methods: &[MethodSpec], ba
         for k in 0..cams.len() {
             let (o, v, f) = (&oracle[k], &visible[k], &in_frustum[k]);
             let kept: std::collections::HashSet<u32> = v.iter().copied().collect();
-            r.false_culls += o.iter().filter(|id| !kept.contains(id)).count() as u64;
+            let missed: Vec<u32> = o.iter().copied().filter(|id| !kept.contains(id)).collect();
+            if !missed.is_empty() {
+                tracing::debug!(method = %spec.name, pose = k, ?missed, "false culls");
+            }
+            r.false_culls += missed.len() as u64;
             r.in_frustum += f.len() as u64;
             r.oracle_visible += o.len() as u64;
             let hidden = f.len() - o.len();

@@ -48,9 +48,11 @@ fn project_box(pose: PoseUniform, bmin: vec3<f32>, bmax: vec3<f32>) -> ScreenRec
     var hi = vec2<f32>(-1e30, -1e30);
     var nearest = 1e30;
     var farthest = -1e30;
+    var clipped = false;
     for (var i = 0u; i < 8u; i++) {
         v[i] = (pose.view * vec4<f32>(box_corner(bmin, bmax, i), 1.0)).xyz;
         let d = -v[i].z;
+        clipped = clipped || d < near;
         if d >= near {
             let s = vec2<f32>((v[i].x * sc.x / d * 0.5 + 0.5) * sc.z, (0.5 - v[i].y * sc.y / d * 0.5) * sc.w);
             lo = min(lo, s);
@@ -64,7 +66,7 @@ fn project_box(pose: PoseUniform, bmin: vec3<f32>, bmax: vec3<f32>) -> ScreenRec
     if farthest < near {
         return r;
     }
-    if nearest <= near {
+    if clipped {
         nearest = near;
         for (var e = 0u; e < 12u; e++) {
             let va = v[BOX_EDGES[e].x];
