@@ -1,0 +1,36 @@
+//! Shared helpers of the integration tests: the GPU (or a skip), the shared scenes.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+use std::sync::{Arc, OnceLock};
+
+use homcull::gpu::{GpuContext, require_gpu};
+
+/// The test GPU. Without an adapter the test is skipped with a message, unless
+/// `HOMCULL_REQUIRE_GPU=1`, which makes it a failure.
+pub fn gpu() -> Option<Arc<GpuContext>> {
+    static GPU: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
+    GPU.get_or_init(|| match GpuContext::new() {
+        Ok(ctx) => {
+            eprintln!("test adapter: {}", ctx.describe());
+            Some(Arc::new(ctx))
+        }
+        Err(e) => {
+            assert!(!require_gpu(), "HOMCULL_REQUIRE_GPU=1 but no adapter: {e}");
+            eprintln!("SKIP: no GPU adapter ({e}); set HOMCULL_REQUIRE_GPU=1 to make this a failure");
+            None
+        }
+    })
+    .clone()
+}
+
+/// `../shared/scenes` next to the crate, if present.
+pub fn scenes_dir() -> Option<PathBuf> {
+    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/scenes"));
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!("SKIP: {} is absent", dir.display());
+        None
+    }
+}

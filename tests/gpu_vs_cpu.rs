@@ -1,0 +1,147 @@
+//! Every GPU pass against its CPU twin on the same input, and property tests of the
+//! conservativeness claim on random scenes (DESIGN.md §7).
+
+mod common;
+
+use glam::Vec3;
+use homcull::camera::{Camera, look_at};
+use homcull::cull::{CpuBackend, CullSettings, Culler, PreparedScene, plan};
+use homcull::gpu::GpuBackend;
+use homcull::hom::pyramid::{self, LevelLayout};
+use homcull::occluders::OccluderParams;
+use homcull::scene::{Scene, SceneBuilder, demo_city};
+use homcull_proto::{CullOptions, DebVariant, Method};
+use proptest::prelude::*;
+
+fn demo_cams(w: u32, h: u32) -> Vec<Camera> {
+    [
+        (Vec3::new(0.0, 1.7, 3.0), Vec3::new(40.0, 1.7, 10.0)),
+        (Vec3::new(-35.0, 1.7, -30.0), Vec3::new(-35.0, 3.0, 60.0)),
+        (Vec3::new(10.0, 40.0, 10.0), Vec3::new(200.0, 0.0, 150.0)),
+        (Vec3::new(3.0, 1.7, -3.0), Vec3::new(-50.0, 1.5, -60.0)),
+    ]
+    .iter()
+    .map(|&(e, t)| look_at(e, t, w, h))
+    .collect()
+}
+
+fn settings(prep: &PreparedScene, method: Method, deb: DebVariant) -> CullSettings {
+    CullSettings::new(CullOptions { method, threshold: 1.0, deb }, prep)
+}
+
+#[test]
+fn raster_pyramid_and_test_match_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let prep = PreparedScene::new(demo_city(), OccluderParams::default());
+    let mut backend = GpuBackend::new(gpu, &prep);
+    let (w, h) = (320, 180);
+    let s = settings(&prep, Method::Hom, DebVariant::Raster);
+    let plans: Vec<_> = demo_cams(w, h).iter().map(|c| plan(&prep, c, &s)).collect();
+    let (g_opacity, g_depth) = backend.pyramids(&plans, &s).unwrap();
+    let layout = LevelLayout::new(w, h);
+    let stride = layout.total as usize;
+    let gpu_masks = backend.visibility(&prep, &plans, &s).unwrap();
+    for (k, p) in plans.iter().enumerate() {
+        let go = &g_opacity[k * stride..(k + 1) * stride];
+        let gd = &g_depth[k * stride..(k + 1) * stride];
+        // Raster: coverage may differ only on a thin set of edge pixels; depth agrees.
+        let cpu0 = CpuBackend::occluder_depth(&prep.scene, p);
+        let n0 = (w * h) as usize;
+        let mismatched = (0..n0).filter(|&i| (cpu0[i] > 0.0) != (go[i] > 0.0)).count();
+        assert!(mismatched * 200 < n0, "pose {k}: {mismatched} of {n0} pixels differ in coverage");
+        // Where both cover a pixel the nearest depth agrees, except where an edge pixel
+        // went to a different triangle.
+        let both: Vec<usize> = (0..n0).filter(|&i| cpu0[i] > 0.0 && go[i] > 0.0).collect();
+        let off = both.iter().filter(|&&i| (cpu0[i] - gd[i]).abs() > 1e-3 * cpu0[i]).count();
+        assert!(both.len() > n0 / 10, "pose {k}: too little coverage to compare");
+        assert!(off * 200 < both.len(), "pose {k}: {off} of {} covered pixels differ in depth", both.len());
+        // Pyramid: CPU reduction of the GPU's level 0 must equal the GPU's levels exactly.
+        let (co, cd) = pyramid::build(&layout, &gd[..n0]);
+        assert_eq!(co, go, "pose {k}: opacity pyramid differs");
+        assert_eq!(cd, gd, "pose {k}: depth pyramid differs");
+        // Object test on the same pyramid.
+        let cpu_mask = CpuBackend::test_boxes(&prep.scene, p, &s, &layout, go, gd);
+        assert_eq!(cpu_mask, gpu_masks[k], "pose {k}: object test differs");
+        assert!(cpu_mask.iter().any(|&w| w != 0));
+    }
+}
+
+#[test]
+fn exact_oracle_matches_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let prep = PreparedScene::new(demo_city(), OccluderParams::default());
+    let mut backend = GpuBackend::new(gpu, &prep);
+    let s = settings(&prep, Method::Exact, DebVariant::Raster);
+    let cams = demo_cams(320, 180);
+    let g = backend.cull(&prep, &cams, &s).unwrap();
+    let c = CpuBackend.cull(&prep, &cams, &s).unwrap();
+    for (a, b) in g.iter().zip(&c) {
+        let diff = a.visible.iter().filter(|i| !b.visible.contains(i)).count() + b.visible.iter().filter(|i| !a.visible.contains(i)).count();
+        // Only objects owning a pixel or two on a shared edge may differ.
+        assert!(diff * 50 <= a.visible.len().max(50), "{diff} objects differ of {}", a.visible.len());
+        assert!(!a.visible.is_empty());
+    }
+}
+
+#[test]
+fn batch_equals_single_calls() {
+    let Some(gpu) = common::gpu() else { return };
+    let prep = PreparedScene::new(demo_city(), OccluderParams::default());
+    let mut backend = GpuBackend::new(gpu, &prep);
+    for method in [Method::Hom, Method::Hzb, Method::Exact] {
+        let s = settings(&prep, method, DebVariant::Tiles);
+        // More poses than one group of slots, so group boundaries are exercised.
+        let cams: Vec<Camera> = (0..20).map(|i| demo_cams(200, 120)[i % 4].clone()).collect();
+        let batched = backend.cull(&prep, &cams, &s).unwrap();
+        for (i, cam) in cams.iter().enumerate().take(4) {
+            let single = backend.cull(&prep, std::slice::from_ref(cam), &s).unwrap();
+            assert_eq!(single[0].visible, batched[i].visible, "{method:?} pose {i}");
+            assert_eq!(batched[i].visible, batched[i + 16].visible);
+        }
+    }
+}
+
+/// A random scene: a ground quad and boxes of random size and place.
+fn random_scene(boxes: &[(f32, f32, f32, f32, f32)]) -> Scene {
+    let mut b = SceneBuilder::default();
+    let g = [Vec3::new(-60.0, 0.0, -60.0), Vec3::new(60.0, 0.0, -60.0), Vec3::new(60.0, 0.0, 60.0), Vec3::new(-60.0, 0.0, 60.0)];
+    b.push("ground".into(), &g, &[0, 2, 1, 0, 3, 2], None);
+    for (i, &(x, z, sx, sy, sz)) in boxes.iter().enumerate() {
+        let (lo, hi) = (Vec3::new(x, 0.0, z), Vec3::new(x + sx, sy, z + sz));
+        let c: Vec<Vec3> = (0..8).map(|k| Vec3::new(if k & 1 == 0 { lo.x } else { hi.x }, if k & 2 == 0 { lo.y } else { hi.y }, if k & 4 == 0 { lo.z } else { hi.z })).collect();
+        let idx = [0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5];
+        b.push(format!("box_{i}"), &c, &idx, None);
+    }
+    b.build("random")
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn hom_and_hzb_never_cull_what_the_oracle_sees(
+        boxes in prop::collection::vec((-50.0f32..50.0, -50.0f32..50.0, 0.2f32..12.0, 0.2f32..20.0, 0.2f32..12.0), 5..60),
+        eye in (-40.0f32..40.0, 0.5f32..15.0, -40.0f32..40.0),
+        dir in (0.0f32..std::f32::consts::TAU, -0.5f32..0.3),
+    ) {
+        let Some(gpu) = common::gpu() else { return Ok(()) };
+        let prep = PreparedScene::new(random_scene(&boxes), OccluderParams { min_diagonal: 0.0, ..Default::default() });
+        let eye = Vec3::new(eye.0, eye.1, eye.2);
+        let target = eye + Vec3::new(dir.0.cos(), dir.1, dir.0.sin());
+        let cam = look_at(eye, target, 160, 90);
+        let mut backend = GpuBackend::new(gpu, &prep);
+        let exact = backend.cull(&prep, std::slice::from_ref(&cam), &settings(&prep, Method::Exact, DebVariant::Raster)).unwrap();
+        for (method, deb) in [(Method::Hom, DebVariant::Raster), (Method::Hom, DebVariant::Tiles), (Method::Hom, DebVariant::Plane), (Method::Hzb, DebVariant::Raster)] {
+            let r = backend.cull(&prep, std::slice::from_ref(&cam), &settings(&prep, method, deb)).unwrap();
+            for id in &exact[0].visible {
+                prop_assert!(r[0].visible.contains(id), "{:?}/{:?} culled {} which the oracle sees", method, deb, id);
+            }
+        }
+        // The CPU reference keeps the same promise against the CPU oracle.
+        let cpu_exact = CpuBackend.cull(&prep, std::slice::from_ref(&cam), &settings(&prep, Method::Exact, DebVariant::Raster)).unwrap();
+        let cpu_hom = CpuBackend.cull(&prep, std::slice::from_ref(&cam), &settings(&prep, Method::Hom, DebVariant::Raster)).unwrap();
+        for id in &cpu_exact[0].visible {
+            prop_assert!(cpu_hom[0].visible.contains(id), "CPU hom culled {}", id);
+        }
+    }
+}
