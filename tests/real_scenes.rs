@@ -23,7 +23,7 @@ fn floor(scene: &str) -> f64 {
     match scene {
         "demo" => 0.97,
         "munich" => 0.95,
-        "etoile" => 0.88,
+        "etoile" => 0.86,
         "oa_shouse" => 0.76,
         "oa_dm1" => 0.78,
         "godot_room" => 0.85,
