@@ -37,7 +37,14 @@ fn cams(n: usize) -> Vec<Camera> {
 }
 
 fn settings(method: Method) -> CullSettings {
-    CullSettings::new(CullOptions { method, threshold: 1.0, deb: DebVariant::Raster }, prepared())
+    CullSettings::new(
+        CullOptions {
+            method,
+            threshold: 1.0,
+            deb: DebVariant::Raster,
+        },
+        prepared(),
+    )
 }
 
 #[divan::bench]
@@ -45,7 +52,13 @@ fn project_box_per_object(b: Bencher) {
     let p = prepared();
     let cam = &cams(1)[0];
     b.counter(divan::counter::ItemsCount::new(p.scene.boxes.len()))
-        .bench(|| p.scene.boxes.iter().filter_map(|tb| cam.project_box(divan::black_box(&tb.aabb))).count());
+        .bench(|| {
+            p.scene
+                .boxes
+                .iter()
+                .filter_map(|tb| cam.project_box(divan::black_box(&tb.aabb)))
+                .count()
+        });
 }
 
 #[divan::bench]
@@ -74,13 +87,16 @@ fn cpu_object_test_per_box(b: Bencher) {
 #[divan::bench]
 fn cpu_pyramid_reduce(b: Bencher) {
     let layout = LevelLayout::new(960, 540);
-    let level0: Vec<f32> = (0..960 * 540).map(|i| if i % 7 == 0 { 0.0 } else { 5.0 }).collect();
+    let level0: Vec<f32> = (0..960 * 540)
+        .map(|i| if i % 7 == 0 { 0.0 } else { 5.0 })
+        .collect();
     b.bench(|| pyramid::build(&layout, divan::black_box(&level0)));
 }
 
 fn gpu() -> Option<Arc<GpuContext>> {
     static G: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
-    G.get_or_init(|| GpuContext::new().ok().map(Arc::new)).clone()
+    G.get_or_init(|| GpuContext::new().ok().map(Arc::new))
+        .clone()
 }
 
 #[divan::bench(args = [1, 16, 64], consts = [0, 1, 2])]
@@ -95,5 +111,6 @@ fn gpu_batch<const M: usize>(b: Bencher, poses: usize) {
     let s = settings(method);
     let cams = cams(poses);
     backend.cull(p, &cams, &s).unwrap();
-    b.counter(divan::counter::ItemsCount::new(poses)).bench_local(|| backend.cull(p, &cams, &s).unwrap());
+    b.counter(divan::counter::ItemsCount::new(poses))
+        .bench_local(|| backend.cull(p, &cams, &s).unwrap());
 }

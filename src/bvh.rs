@@ -27,12 +27,21 @@ pub struct BoxBvh {
 impl BoxBvh {
     /// Builds over `boxes`; empty boxes can never be returned by a query.
     pub fn new(boxes: &[Aabb]) -> Self {
-        let items: Vec<u32> = (0..boxes.len() as u32).filter(|&i| !boxes[i as usize].is_empty()).collect();
-        let prims: Vec<Item> = items.iter().map(|&i| Item(boxes[i as usize].to_obvhs())).collect();
+        let items: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&i| !boxes[i as usize].is_empty())
+            .collect();
+        let prims: Vec<Item> = items
+            .iter()
+            .map(|&i| Item(boxes[i as usize].to_obvhs()))
+            .collect();
         let bvh = if prims.is_empty() {
             Bvh2::default()
         } else {
-            build_bvh2(&prims, BvhBuildParams::fast_build(), &mut Default::default())
+            build_bvh2(
+                &prims,
+                BvhBuildParams::fast_build(),
+                &mut Default::default(),
+            )
         };
         BoxBvh { bvh, items }
     }
@@ -77,7 +86,11 @@ mod tests {
         let mut boxes = Vec::new();
         for i in 0..40 {
             for j in 0..40 {
-                let p = Vec3::new(i as f32 * 3.0 - 60.0, (i * j % 7) as f32, j as f32 * 3.0 - 60.0);
+                let p = Vec3::new(
+                    i as f32 * 3.0 - 60.0,
+                    (i * j % 7) as f32,
+                    j as f32 * 3.0 - 60.0,
+                );
                 boxes.push(Aabb::new(p, p + Vec3::splat(1.0 + (i % 3) as f32)));
             }
         }
@@ -92,7 +105,9 @@ mod tests {
             let mut got = Vec::new();
             bvh.frustum_query(&cam, |i| got.push(i));
             got.sort_unstable();
-            let want: Vec<u32> = (0..boxes.len() as u32).filter(|&i| !boxes[i as usize].is_empty() && cam.intersects(&boxes[i as usize])).collect();
+            let want: Vec<u32> = (0..boxes.len() as u32)
+                .filter(|&i| !boxes[i as usize].is_empty() && cam.intersects(&boxes[i as usize]))
+                .collect();
             assert_eq!(got, want);
             assert!(!got.is_empty());
         }

@@ -98,7 +98,7 @@ impl Camera {
             (Some(q), None) => {
                 finite("rotation", &q)?;
                 let q = Quat::from_array(q);
-                if !(q.length() > 1e-6) {
+                if q.length().is_nan() || q.length() <= 1e-6 {
                     return Err(PoseError::Rotation);
                 }
                 Mat4::from_rotation_translation(q.normalize(), eye).inverse()
@@ -108,18 +108,37 @@ impl Camera {
                 let up = Vec3::from(pose.up.unwrap_or([0.0, 1.0, 0.0]));
                 finite("up", &up.to_array())?;
                 let dir = Vec3::from(target) - eye;
-                if dir.length() < 1e-6 || up.length() < 1e-6 || dir.normalize().cross(up.normalize()).length() < 1e-4 {
+                if dir.length() < 1e-6
+                    || up.length() < 1e-6
+                    || dir.normalize().cross(up.normalize()).length() < 1e-4
+                {
                     return Err(PoseError::LookAt);
                 }
                 look_at_rh(eye, Vec3::from(target), up.normalize())
             }
             (None, None) => Mat4::from_translation(-eye),
         };
-        Ok(Camera::from_view(eye, view, pose.fov_y_deg, w, h, pose.near, pose.far))
+        Ok(Camera::from_view(
+            eye,
+            view,
+            pose.fov_y_deg,
+            w,
+            h,
+            pose.near,
+            pose.far,
+        ))
     }
 
     /// Builds a camera from an already valid view matrix.
-    pub fn from_view(position: Vec3, view: Mat4, fov_y_deg: f32, width: u32, height: u32, near: f32, far: f32) -> Self {
+    pub fn from_view(
+        position: Vec3,
+        view: Mat4,
+        fov_y_deg: f32,
+        width: u32,
+        height: u32,
+        near: f32,
+        far: f32,
+    ) -> Self {
         let aspect = width as f32 / height as f32;
         let proj = perspective_reversed_z(fov_y_deg.to_radians(), aspect, near, far);
         let view_proj = proj * view;
@@ -153,7 +172,9 @@ impl Camera {
 
     /// Conservative frustum test: false only if the box lies wholly outside one plane.
     pub fn intersects(&self, b: &Aabb) -> bool {
-        self.planes.iter().all(|p| p.max_distance(b) >= -FRUSTUM_EPSILON)
+        self.planes
+            .iter()
+            .all(|p| p.max_distance(b) >= -FRUSTUM_EPSILON)
     }
 
     /// View depth of a world point (positive in front of the camera).
@@ -234,9 +255,18 @@ pub fn perspective_reversed_z(fov_y: f32, aspect: f32, near: f32, far: f32) -> M
 
 /// The twelve edges of a box, as pairs of [`Aabb::corners`] indices.
 pub const BOX_EDGES: [(usize, usize); 12] = [
-    (0, 1), (2, 3), (4, 5), (6, 7),
-    (0, 2), (1, 3), (4, 6), (5, 7),
-    (0, 4), (1, 5), (2, 6), (3, 7),
+    (0, 1),
+    (2, 3),
+    (4, 5),
+    (6, 7),
+    (0, 2),
+    (1, 3),
+    (4, 6),
+    (5, 7),
+    (0, 4),
+    (1, 5),
+    (2, 6),
+    (3, 7),
 ];
 
 /// A projected box: pixels `[x0, x1) × [y0, y1)` and its view-depth range.
@@ -254,13 +284,27 @@ pub struct ScreenRect {
 
 impl ScreenRect {
     /// Rounds float pixel bounds outward and clamps them to the viewport.
-    pub fn from_bounds(lo: [f32; 2], hi: [f32; 2], w: u32, h: u32, near: f32, far: f32) -> Option<Self> {
+    pub fn from_bounds(
+        lo: [f32; 2],
+        hi: [f32; 2],
+        w: u32,
+        h: u32,
+        near: f32,
+        far: f32,
+    ) -> Option<Self> {
         let clamp = |v: f32, max: u32| v.clamp(0.0, max as f32) as u32;
         let x0 = clamp((lo[0] - RECT_EPSILON_PX).floor(), w);
         let y0 = clamp((lo[1] - RECT_EPSILON_PX).floor(), h);
         let x1 = clamp((hi[0] + RECT_EPSILON_PX).ceil(), w);
         let y1 = clamp((hi[1] + RECT_EPSILON_PX).ceil(), h);
-        (x0 < x1 && y0 < y1).then_some(ScreenRect { x0, y0, x1, y1, near, far })
+        (x0 < x1 && y0 < y1).then_some(ScreenRect {
+            x0,
+            y0,
+            x1,
+            y1,
+            near,
+            far,
+        })
     }
 
     pub fn width(&self) -> u32 {
@@ -292,7 +336,12 @@ impl PoseUniform {
         PoseUniform {
             view_proj: cam.view_proj.to_cols_array_2d(),
             view: cam.view.to_cols_array_2d(),
-            scale_viewport: [cam.scale[0], cam.scale[1], cam.width as f32, cam.height as f32],
+            scale_viewport: [
+                cam.scale[0],
+                cam.scale[1],
+                cam.width as f32,
+                cam.height as f32,
+            ],
             near_far: [cam.near, cam.far, deb_plane_depth, 0.0],
             _pad: [0.0; 24],
         }
@@ -388,14 +437,25 @@ mod tests {
         let r = c.project_box(&b).unwrap();
         assert_eq!(r.near, c.near);
         // Box behind the camera projects to nothing.
-        assert!(c.project_box(&Aabb::new(Vec3::new(-1.0, -1.0, 11.0), Vec3::new(1.0, 1.0, 12.0))).is_none());
+        assert!(
+            c.project_box(&Aabb::new(
+                Vec3::new(-1.0, -1.0, 11.0),
+                Vec3::new(1.0, 1.0, 12.0)
+            ))
+            .is_none()
+        );
     }
 
     #[test]
     fn box_with_one_corner_in_front_spans_the_clip_points() {
         // Flat ground box around the camera, only one corner ahead of it: the clipped
         // polygon spans the whole screen width.
-        let c = look_at(Vec3::new(0.0, 1.7, 0.0), Vec3::new(-1.0, 1.6, 0.0), 960, 540);
+        let c = look_at(
+            Vec3::new(0.0, 1.7, 0.0),
+            Vec3::new(-1.0, 1.6, 0.0),
+            960,
+            540,
+        );
         let b = Aabb::new(Vec3::new(-10.0, 0.0, -30.0), Vec3::new(60.0, 0.0, 40.0));
         let r = c.project_box(&b).unwrap();
         assert_eq!((r.x0, r.x1), (0, 960));
@@ -406,7 +466,13 @@ mod tests {
     fn frustum_rejects_outside() {
         let c = cam();
         assert!(c.intersects(&Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0))));
-        assert!(!c.intersects(&Aabb::new(Vec3::new(500.0, 0.0, 0.0), Vec3::new(501.0, 1.0, 1.0))));
-        assert!(!c.intersects(&Aabb::new(Vec3::new(0.0, 0.0, 11.0), Vec3::new(1.0, 1.0, 12.0))));
+        assert!(!c.intersects(&Aabb::new(
+            Vec3::new(500.0, 0.0, 0.0),
+            Vec3::new(501.0, 1.0, 1.0)
+        )));
+        assert!(!c.intersects(&Aabb::new(
+            Vec3::new(0.0, 0.0, 11.0),
+            Vec3::new(1.0, 1.0, 12.0)
+        )));
     }
 }

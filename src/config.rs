@@ -7,7 +7,11 @@ use clap::{Args, Parser, Subcommand};
 use homcull_proto::{DebVariant, Method};
 
 #[derive(Debug, Parser)]
-#[command(name = "homcull", version, about = "Occlusion culling with Hierarchical Occlusion Maps on wgpu")]
+#[command(
+    name = "homcull",
+    version,
+    about = "Occlusion culling with Hierarchical Occlusion Maps on wgpu"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Option<Command>,
@@ -92,7 +96,13 @@ pub struct EvalArgs {
 
 /// Parses `WIDTHxHEIGHT`.
 pub fn parse_viewport(s: &str) -> Result<[u32; 2], String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("viewport `{s}` is not WIDTHxHEIGHT"))?;
-    let p = |v: &str| v.trim().parse::<u32>().map_err(|e| format!("viewport `{s}`: {e}"));
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("viewport `{s}` is not WIDTHxHEIGHT"))?;
+    let p = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|e| format!("viewport `{s}`: {e}"))
+    };
     Ok([p(w)?, p(h)?])
 }

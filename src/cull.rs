@@ -18,10 +18,10 @@ use homcull_proto::{CullOptions, CullStats, DebVariant, Method};
 use crate::bvh::BoxBvh;
 use crate::camera::Camera;
 use crate::hom::deb::{DEFAULT_TILE, DepthEstimationBuffer};
+use crate::hom::level_thresholds;
 use crate::hom::pyramid::{self, LevelLayout};
 use crate::hom::raster::{raster_depth, raster_ids};
 use crate::hom::test::{PyramidView, hom_occluded, hzb_occluded};
-use crate::hom::level_thresholds;
 use crate::occluders::{OccluderDb, OccluderParams, OccluderSelection};
 use crate::scene::Scene;
 
@@ -46,7 +46,11 @@ impl PreparedScene {
         let boxes: Vec<_> = scene.objects.iter().map(|o| o.aabb).collect();
         let bvh = BoxBvh::new(&boxes);
         let occluders = OccluderDb::build(&scene, occluder_params);
-        PreparedScene { scene, bvh, occluders }
+        PreparedScene {
+            scene,
+            bvh,
+            occluders,
+        }
     }
 }
 
@@ -71,7 +75,11 @@ impl CullSettings {
 
     pub fn validate(&self) -> Result<(), CullError> {
         let t = self.options.threshold;
-        if t > 0.0 && t <= 1.0 { Ok(()) } else { Err(CullError::Threshold(t)) }
+        if t > 0.0 && t <= 1.0 {
+            Ok(())
+        } else {
+            Err(CullError::Threshold(t))
+        }
     }
 }
 
@@ -97,12 +105,25 @@ pub fn plan(prep: &PreparedScene, cam: &Camera, s: &CullSettings) -> PosePlan {
     if occludes {
         for &c in &candidates {
             let (a, b) = prep.scene.box_ranges[c as usize];
-            test_boxes.extend((a..b).filter(|&i| cam.intersects(&prep.scene.boxes[i as usize].aabb)));
+            test_boxes
+                .extend((a..b).filter(|&i| cam.intersects(&prep.scene.boxes[i as usize].aabb)));
         }
         occluders = prep.occluders.select(&prep.scene, cam, s.budget_triangles);
     }
-    let variant = if s.options.method == Method::Hom { s.options.deb } else { DebVariant::Raster };
-    let deb = DepthEstimationBuffer::build(variant, s.deb_tile, cam, occluders.ids.iter().map(|&i| prep.scene.objects[i as usize].aabb));
+    let variant = if s.options.method == Method::Hom {
+        s.options.deb
+    } else {
+        DebVariant::Raster
+    };
+    let deb = DepthEstimationBuffer::build(
+        variant,
+        s.deb_tile,
+        cam,
+        occluders
+            .ids
+            .iter()
+            .map(|&i| prep.scene.objects[i as usize].aabb),
+    );
     PosePlan {
         cam: cam.clone(),
         candidates,
@@ -127,10 +148,20 @@ pub trait Culler {
 
     /// Visibility bitmasks (`words_per_pose(objects)` words per pose) of a batch of
     /// planned poses sharing one viewport size.
-    fn visibility(&mut self, prep: &PreparedScene, plans: &[PosePlan], s: &CullSettings) -> Result<Vec<Vec<u32>>, CullError>;
+    fn visibility(
+        &mut self,
+        prep: &PreparedScene,
+        plans: &[PosePlan],
+        s: &CullSettings,
+    ) -> Result<Vec<Vec<u32>>, CullError>;
 
     /// Culls a batch of cameras with the chosen method.
-    fn cull(&mut self, prep: &PreparedScene, cams: &[Camera], s: &CullSettings) -> Result<Vec<PoseResult>, CullError> {
+    fn cull(
+        &mut self,
+        prep: &PreparedScene,
+        cams: &[Camera],
+        s: &CullSettings,
+    ) -> Result<Vec<PoseResult>, CullError> {
         s.validate()?;
         let start = Instant::now();
         let plans: Vec<PosePlan> = cams.iter().map(|c| plan(prep, c, s)).collect();
@@ -141,7 +172,10 @@ pub trait Culler {
             let mut i = 0;
             while i < plans.len() {
                 let size = (plans[i].cam.width, plans[i].cam.height);
-                let j = i + plans[i..].iter().take_while(|p| (p.cam.width, p.cam.height) == size).count();
+                let j = i + plans[i..]
+                    .iter()
+                    .take_while(|p| (p.cam.width, p.cam.height) == size)
+                    .count();
                 let t = Instant::now();
                 masks.extend(self.visibility(prep, &plans[i..j], s)?);
                 image_ms += t.elapsed().as_secs_f64() * 1e3;
@@ -156,7 +190,12 @@ pub trait Culler {
             .enumerate()
             .map(|(k, p)| {
                 let visible = match masks.get(k) {
-                    Some(m) => p.candidates.iter().copied().filter(|&c| m[c as usize / 32] >> (c % 32) & 1 == 1).collect(),
+                    Some(m) => p
+                        .candidates
+                        .iter()
+                        .copied()
+                        .filter(|&c| m[c as usize / 32] >> (c % 32) & 1 == 1)
+                        .collect(),
                     None => p.candidates.clone(),
                 };
                 let stats = CullStats {
@@ -190,7 +229,10 @@ fn set_bit(mask: &mut [u32], id: u32) {
 pub struct CpuBackend;
 
 impl CpuBackend {
-    fn triangles<'a>(scene: &'a Scene, ids: &'a [u32]) -> impl Iterator<Item = (u32, [glam::Vec3; 3])> + 'a {
+    fn triangles<'a>(
+        scene: &'a Scene,
+        ids: &'a [u32],
+    ) -> impl Iterator<Item = (u32, [glam::Vec3; 3])> + 'a {
         ids.iter().flat_map(move |&id| {
             scene
                 .triangles_of(&scene.objects[id as usize])
@@ -202,18 +244,35 @@ impl CpuBackend {
     /// Level-0 occluder depth map of one pose (0 = uncovered).
     pub fn occluder_depth(scene: &Scene, p: &PosePlan) -> Vec<f32> {
         let mut depth = vec![0.0; (p.cam.width * p.cam.height) as usize];
-        raster_depth(&p.cam, Self::triangles(scene, &p.occluders.ids).map(|(_, t)| t), &mut depth);
+        raster_depth(
+            &p.cam,
+            Self::triangles(scene, &p.occluders.ids).map(|(_, t)| t),
+            &mut depth,
+        );
         depth
     }
 
     /// Visibility bitmask of the per-object test on a given pyramid.
-    pub fn test_boxes(scene: &Scene, p: &PosePlan, s: &CullSettings, layout: &LevelLayout, opacity: &[f32], depth: &[f32]) -> Vec<u32> {
+    pub fn test_boxes(
+        scene: &Scene,
+        p: &PosePlan,
+        s: &CullSettings,
+        layout: &LevelLayout,
+        opacity: &[f32],
+        depth: &[f32],
+    ) -> Vec<u32> {
         let mut mask = vec![0u32; words_per_pose(scene.objects.len())];
-        let view = PyramidView { layout, opacity, depth };
+        let view = PyramidView {
+            layout,
+            opacity,
+            depth,
+        };
         let thr = level_thresholds(s.options.threshold, layout.levels());
         for &b in &p.test_boxes {
             let tb = &scene.boxes[b as usize];
-            let Some(r) = p.cam.project_box(&tb.aabb) else { continue };
+            let Some(r) = p.cam.project_box(&tb.aabb) else {
+                continue;
+            };
             let hidden = match s.options.method {
                 Method::Hzb => hzb_occluded(&r, &view),
                 _ => hom_occluded(&r, &view, &thr, s.options.deb, &p.deb),
@@ -230,7 +289,12 @@ impl CpuBackend {
         let n = (p.cam.width * p.cam.height) as usize;
         let mut ids = vec![u32::MAX; n];
         let mut depth = vec![0.0; n];
-        raster_ids(&p.cam, Self::triangles(scene, &p.candidates), &mut ids, &mut depth);
+        raster_ids(
+            &p.cam,
+            Self::triangles(scene, &p.candidates),
+            &mut ids,
+            &mut depth,
+        );
         let mut mask = vec![0u32; words_per_pose(scene.objects.len())];
         for id in ids.into_iter().filter(|&id| id != u32::MAX) {
             set_bit(&mut mask, id);
@@ -244,7 +308,12 @@ impl Culler for CpuBackend {
         "CPU reference (no GPU)".into()
     }
 
-    fn visibility(&mut self, prep: &PreparedScene, plans: &[PosePlan], s: &CullSettings) -> Result<Vec<Vec<u32>>, CullError> {
+    fn visibility(
+        &mut self,
+        prep: &PreparedScene,
+        plans: &[PosePlan],
+        s: &CullSettings,
+    ) -> Result<Vec<Vec<u32>>, CullError> {
         let scene = &prep.scene;
         Ok(plans
             .iter()

@@ -22,7 +22,11 @@ pub struct Engine {
 }
 
 impl Engine {
-    pub fn new(scene: Scene, occluder_params: OccluderParams, gpu: Option<Arc<GpuContext>>) -> Self {
+    pub fn new(
+        scene: Scene,
+        occluder_params: OccluderParams,
+        gpu: Option<Arc<GpuContext>>,
+    ) -> Self {
         let prepared = PreparedScene::new(scene, occluder_params);
         let (backend, cpu_fallback): (Box<dyn Culler + Send>, bool) = match gpu {
             Some(ctx) => (Box::new(GpuBackend::new(ctx, &prepared)), false),
@@ -45,7 +49,11 @@ impl Engine {
         CullSettings::new(options, &self.prepared)
     }
 
-    pub fn cull(&mut self, cams: &[Camera], settings: &CullSettings) -> Result<Vec<PoseResult>, CullError> {
+    pub fn cull(
+        &mut self,
+        cams: &[Camera],
+        settings: &CullSettings,
+    ) -> Result<Vec<PoseResult>, CullError> {
         self.backend.cull(&self.prepared, cams, settings)
     }
 }

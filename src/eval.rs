@@ -34,7 +34,11 @@ impl MethodSpec {
         };
         Ok(MethodSpec {
             name: s.to_string(),
-            options: CullOptions { method, threshold, deb },
+            options: CullOptions {
+                method,
+                threshold,
+                deb,
+            },
         })
     }
 }
@@ -52,7 +56,10 @@ impl Percentiles {
         }
         v.sort_by(f64::total_cmp);
         let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
-        Percentiles { p50: at(0.5), p95: at(0.95) }
+        Percentiles {
+            p50: at(0.5),
+            p95: at(0.95),
+        }
     }
 }
 
@@ -97,24 +104,34 @@ pub struct EvalReport {
 }
 
 /// Runs the oracle and every method on `cams` in batches of `batch`.
-pub fn evaluate(engine: &mut Engine, cams: &[Camera], methods: &[MethodSpec], batch: usize, pvs: Option<&Pvs>) -> Result<EvalReport, CullError> {
+pub fn evaluate(
+    engine: &mut Engine,
+    cams: &[Camera],
+    methods: &[MethodSpec],
+    batch: usize,
+    pvs: Option<&Pvs>,
+) -> Result<EvalReport, CullError> {
     let batch = batch.max(1);
     let exact = MethodSpec {
         name: "exact".into(),
-        options: CullOptions { method: Method::Exact, ..Default::default() },
+        options: CullOptions {
+            method: Method::Exact,
+            ..Default::default()
+        },
     };
-    let run = |engine: &mut Engine, spec: &MethodSpec| -> Result<(Vec<Vec<u32>>, Vec<f64>), CullError> {
-        let settings = engine.settings(spec.options);
-        let mut visible = Vec::with_capacity(cams.len());
-        let mut ms = Vec::new();
-        for chunk in cams.chunks(batch) {
-            let t = Instant::now();
-            let res = engine.cull(chunk, &settings)?;
-            ms.push(t.elapsed().as_secs_f64() * 1e3 / chunk.len() as f64);
-            visible.extend(res.into_iter().map(|r| r.visible));
-        }
-        Ok((visible, ms))
-    };
+    let run =
+        |engine: &mut Engine, spec: &MethodSpec| -> Result<(Vec<Vec<u32>>, Vec<f64>), CullError> {
+            let settings = engine.settings(spec.options);
+            let mut visible = Vec::with_capacity(cams.len());
+            let mut ms = Vec::new();
+            for chunk in cams.chunks(batch) {
+                let t = Instant::now();
+                let res = engine.cull(chunk, &settings)?;
+                ms.push(t.elapsed().as_secs_f64() * 1e3 / chunk.len() as f64);
+                visible.extend(res.into_iter().map(|r| r.visible));
+            }
+            Ok((visible, ms))
+        };
     // Warm-up: the first batch pays for pipeline and target creation.
     if let Some(c) = cams.first() {
         let s = engine.settings(CullOptions::default());
@@ -123,11 +140,17 @@ pub fn evaluate(engine: &mut Engine, cams: &[Camera], methods: &[MethodSpec], ba
     let (oracle, oracle_ms) = run(engine, &exact)?;
     let frustum_spec = MethodSpec {
         name: "frustum".into(),
-        options: CullOptions { method: Method::Frustum, ..Default::default() },
+        options: CullOptions {
+            method: Method::Frustum,
+            ..Default::default()
+        },
     };
     let (in_frustum, _) = run(engine, &frustum_spec)?;
 
-    let clusters: Vec<i32> = cams.iter().map(|c| pvs.map_or(-1, |p| p.cluster_at(c.position))).collect();
+    let clusters: Vec<i32> = cams
+        .iter()
+        .map(|c| pvs.map_or(-1, |p| p.cluster_at(c.position)))
+        .collect();
 
     let mut reports = BTreeMap::new();
     let mut all = methods.to_vec();
@@ -141,7 +164,11 @@ pub fn evaluate(engine: &mut Engine, cams: &[Camera], methods: &[MethodSpec], ba
             run(engine, spec)?
         };
         let scene = &engine.prepared.scene;
-        let tri = |ids: &[u32]| -> u64 { ids.iter().map(|&i| scene.objects[i as usize].triangles() as u64).sum() };
+        let tri = |ids: &[u32]| -> u64 {
+            ids.iter()
+                .map(|&i| scene.objects[i as usize].triangles() as u64)
+                .sum()
+        };
         let mut r = MethodReport {
             ms_per_pose: Percentiles::of(ms),
             ..Default::default()
@@ -161,7 +188,10 @@ pub fn evaluate(engine: &mut Engine, cams: &[Camera], methods: &[MethodSpec], ba
             r.oracle_hidden += hidden as u64;
             // Culled hidden: in-frustum, not seen by the oracle, not kept.
             let seen: std::collections::HashSet<u32> = o.iter().copied().collect();
-            r.culled_hidden += f.iter().filter(|id| !seen.contains(id) && !kept.contains(id)).count() as u64;
+            r.culled_hidden += f
+                .iter()
+                .filter(|id| !seen.contains(id) && !kept.contains(id))
+                .count() as u64;
             r.kept_triangles += tri(v);
             r.oracle_triangles += tri(o);
             if let (Some(p), c) = (pvs, clusters[k])
@@ -170,7 +200,11 @@ pub fn evaluate(engine: &mut Engine, cams: &[Camera], methods: &[MethodSpec], ba
                 kept_pvs_hidden += v.iter().filter(|&&id| !p.may_see(c, id)).count() as u64;
             }
         }
-        r.efficiency = if r.oracle_hidden > 0 { r.culled_hidden as f64 / r.oracle_hidden as f64 } else { 1.0 };
+        r.efficiency = if r.oracle_hidden > 0 {
+            r.culled_hidden as f64 / r.oracle_hidden as f64
+        } else {
+            1.0
+        };
         if pvs.is_some() {
             r.kept_pvs_hidden = Some(kept_pvs_hidden);
         }
@@ -181,7 +215,20 @@ pub fn evaluate(engine: &mut Engine, cams: &[Camera], methods: &[MethodSpec], ba
         for (k, &c) in clusters.iter().enumerate() {
             if c >= 0 {
                 check.poses_checked += 1;
-                check.oracle_outside_pvs += oracle[k].iter().filter(|&&id| !p.may_see(c, id)).count() as u64;
+                let outside: Vec<u32> = oracle[k]
+                    .iter()
+                    .copied()
+                    .filter(|&id| !p.may_see(c, id))
+                    .collect();
+                if !outside.is_empty() {
+                    tracing::debug!(
+                        pose = k,
+                        cluster = c,
+                        ?outside,
+                        "oracle sees objects outside the PVS"
+                    );
+                }
+                check.oracle_outside_pvs += outside.len() as u64;
             }
         }
         check
@@ -211,14 +258,27 @@ pub fn table(r: &EvalReport) -> String {
         "method", "false culls", "efficiency", "kept/orcl", "in frustum", "ms p50", "ms p95"
     );
     for (name, m) in &r.methods {
-        let over = if m.oracle_triangles > 0 { m.kept_triangles as f64 / m.oracle_triangles as f64 } else { 1.0 };
+        let over = if m.oracle_triangles > 0 {
+            m.kept_triangles as f64 / m.oracle_triangles as f64
+        } else {
+            1.0
+        };
         s += &format!(
             "{:<12} {:>11} {:>10.3} {:>10.2} {:>12} {:>10.2} {:>10.2}\n",
-            name, m.false_culls, m.efficiency, over, m.in_frustum, m.ms_per_pose.p50, m.ms_per_pose.p95
+            name,
+            m.false_culls,
+            m.efficiency,
+            over,
+            m.in_frustum,
+            m.ms_per_pose.p50,
+            m.ms_per_pose.p95
         );
     }
     if let Some(p) = &r.pvs {
-        s += &format!("PVS check: {} poses in a cluster, {} oracle-visible objects outside the PVS\n", p.poses_checked, p.oracle_outside_pvs);
+        s += &format!(
+            "PVS check: {} poses in a cluster, {} oracle-visible objects outside the PVS\n",
+            p.poses_checked, p.oracle_outside_pvs
+        );
     }
     s
 }

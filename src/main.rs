@@ -16,7 +16,10 @@ use homcull_proto::{CullOptions, CullResponse, Pose};
 
 fn main() -> Result<()> {
     tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "homcull=info,wgpu=error".into()))
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| "homcull=info,wgpu=error".into()),
+        )
         .with_writer(std::io::stderr)
         .init();
     let cli = Cli::parse();
@@ -24,7 +27,9 @@ fn main() -> Result<()> {
         Some(Command::Cull(a)) => cull(a),
         Some(Command::Eval(a)) => eval(a),
         None => {
-            eprintln!("homcull: no subcommand given; evaluating the demo city (see `homcull --help`).");
+            eprintln!(
+                "homcull: no subcommand given; evaluating the demo city (see `homcull --help`)."
+            );
             match Cli::parse_from(["homcull", "eval", "--demo", "--random", "64"]).command {
                 Some(Command::Eval(a)) => eval(a),
                 _ => unreachable!("the default command is eval"),
@@ -46,7 +51,11 @@ fn load_scene(arg: &SceneArg) -> Result<Scene> {
         scene.objects.len(),
         scene.triangle_count(),
         scene.boxes.len(),
-        if scene.warnings.is_empty() { String::new() } else { format!(", {} warnings", scene.warnings.len()) }
+        if scene.warnings.is_empty() {
+            String::new()
+        } else {
+            format!(", {} warnings", scene.warnings.len())
+        }
     );
     Ok(scene)
 }
@@ -73,7 +82,9 @@ fn cull(a: CullArgs) -> Result<()> {
         threshold: a.params.threshold,
         deb: a.params.deb,
     });
-    let r = engine.cull(std::slice::from_ref(&cam), &settings)?.remove(0);
+    let r = engine
+        .cull(std::slice::from_ref(&cam), &settings)?
+        .remove(0);
     let out = CullResponse {
         visible: r.visible,
         stats: r.stats,
@@ -97,15 +108,21 @@ fn eval(a: EvalArgs) -> Result<()> {
             let sampler = PoseSampler::new(&scene);
             let accept = |p: glam::Vec3| pvs.as_ref().is_none_or(|v| v.cluster_at(p) >= 0);
             let res = sampler.sample(*n, a.seed, a.viewport, &accept);
-            eprintln!("sampled {} poses in {} attempts: {METHOD}", res.poses.len(), res.attempts);
+            eprintln!(
+                "sampled {} poses in {} attempts: {METHOD}",
+                res.poses.len(),
+                res.attempts
+            );
             if res.poses.len() < *n {
                 eprintln!("warning: only {} of {n} poses found", res.poses.len());
             }
             res.poses
         }
         (None, Some(path)) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            serde_json::from_str(&text).with_context(|| format!("parsing {} as a JSON array of poses", path.display()))?
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            serde_json::from_str(&text)
+                .with_context(|| format!("parsing {} as a JSON array of poses", path.display()))?
         }
         _ => bail!("give --random N or --poses-file FILE"),
     };
@@ -120,7 +137,12 @@ fn eval(a: EvalArgs) -> Result<()> {
         .map(|m| MethodSpec::parse(m, a.params.threshold, a.params.deb).map_err(anyhow::Error::msg))
         .collect::<Result<Vec<_>>>()?;
     let mut engine = engine(scene, a.params.budget)?;
-    eprintln!("culling {} poses with {} methods on {} …", cams.len(), methods.len() + 1, engine.adapter());
+    eprintln!(
+        "culling {} poses with {} methods on {} …",
+        cams.len(),
+        methods.len() + 1,
+        engine.adapter()
+    );
     let report = evaluate(&mut engine, &cams, &methods, a.batch, pvs.as_ref())?;
     if a.json {
         println!("{}", serde_json::to_string(&report)?);

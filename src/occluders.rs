@@ -56,10 +56,17 @@ impl OccluderDb {
         let ids: Vec<u32> = scene
             .objects
             .iter()
-            .filter(|o| o.triangles() > 0 && o.triangles() <= params.max_triangles && o.aabb.diagonal() >= params.min_diagonal)
+            .filter(|o| {
+                o.triangles() > 0
+                    && o.triangles() <= params.max_triangles
+                    && o.aabb.diagonal() >= params.min_diagonal
+            })
             .map(|o| o.id)
             .collect();
-        let boxes: Vec<_> = ids.iter().map(|&i| scene.objects[i as usize].aabb).collect();
+        let boxes: Vec<_> = ids
+            .iter()
+            .map(|&i| scene.objects[i as usize].aabb)
+            .collect();
         let bvh = BoxBvh::new(&boxes);
         tracing::debug!(scene = %scene.name, occluders = ids.len(), "occluder database built");
         OccluderDb { params, ids, bvh }
@@ -72,7 +79,10 @@ impl OccluderDb {
         let mut found: Vec<(f32, u32)> = Vec::new();
         self.bvh.frustum_query(cam, |slot| {
             let id = self.ids[slot as usize];
-            let d = scene.objects[id as usize].aabb.center().distance_squared(cam.position);
+            let d = scene.objects[id as usize]
+                .aabb
+                .center()
+                .distance_squared(cam.position);
             found.push((d, id));
         });
         found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));

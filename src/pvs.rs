@@ -509,7 +509,8 @@ mod tests {
 
     #[test]
     fn malformed_data_is_an_error() {
-        let broken: [(&str, fn(&mut Value)); 10] = [
+        type Breakage = (&'static str, fn(&mut Value));
+        let broken: [Breakage; 10] = [
             ("no bsp", |e| e["bsp"] = Value::Null),
             ("node child past the end", |e| {
                 e["bsp"]["nodes"] = json!([[0, 1, -1]])

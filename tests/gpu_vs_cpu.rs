@@ -26,7 +26,14 @@ fn demo_cams(w: u32, h: u32) -> Vec<Camera> {
 }
 
 fn settings(prep: &PreparedScene, method: Method, deb: DebVariant) -> CullSettings {
-    CullSettings::new(CullOptions { method, threshold: 1.0, deb }, prep)
+    CullSettings::new(
+        CullOptions {
+            method,
+            threshold: 1.0,
+            deb,
+        },
+        prep,
+    )
 }
 
 #[test]
@@ -47,14 +54,29 @@ fn raster_pyramid_and_test_match_cpu() {
         // Raster: coverage may differ only on a thin set of edge pixels; depth agrees.
         let cpu0 = CpuBackend::occluder_depth(&prep.scene, p);
         let n0 = (w * h) as usize;
-        let mismatched = (0..n0).filter(|&i| (cpu0[i] > 0.0) != (go[i] > 0.0)).count();
-        assert!(mismatched * 200 < n0, "pose {k}: {mismatched} of {n0} pixels differ in coverage");
+        let mismatched = (0..n0)
+            .filter(|&i| (cpu0[i] > 0.0) != (go[i] > 0.0))
+            .count();
+        assert!(
+            mismatched * 200 < n0,
+            "pose {k}: {mismatched} of {n0} pixels differ in coverage"
+        );
         // Where both cover a pixel the nearest depth agrees, except where an edge pixel
         // went to a different triangle.
         let both: Vec<usize> = (0..n0).filter(|&i| cpu0[i] > 0.0 && go[i] > 0.0).collect();
-        let off = both.iter().filter(|&&i| (cpu0[i] - gd[i]).abs() > 1e-3 * cpu0[i]).count();
-        assert!(both.len() > n0 / 10, "pose {k}: too little coverage to compare");
-        assert!(off * 200 < both.len(), "pose {k}: {off} of {} covered pixels differ in depth", both.len());
+        let off = both
+            .iter()
+            .filter(|&&i| (cpu0[i] - gd[i]).abs() > 1e-3 * cpu0[i])
+            .count();
+        assert!(
+            both.len() > n0 / 10,
+            "pose {k}: too little coverage to compare"
+        );
+        assert!(
+            off * 200 < both.len(),
+            "pose {k}: {off} of {} covered pixels differ in depth",
+            both.len()
+        );
         // Pyramid: CPU reduction of the GPU's level 0 must equal the GPU's levels exactly.
         let (co, cd) = pyramid::build(&layout, &gd[..n0]);
         assert_eq!(co, go, "pose {k}: opacity pyramid differs");
@@ -76,9 +98,14 @@ fn exact_oracle_matches_cpu() {
     let g = backend.cull(&prep, &cams, &s).unwrap();
     let c = CpuBackend.cull(&prep, &cams, &s).unwrap();
     for (a, b) in g.iter().zip(&c) {
-        let diff = a.visible.iter().filter(|i| !b.visible.contains(i)).count() + b.visible.iter().filter(|i| !a.visible.contains(i)).count();
+        let diff = a.visible.iter().filter(|i| !b.visible.contains(i)).count()
+            + b.visible.iter().filter(|i| !a.visible.contains(i)).count();
         // Only objects owning a pixel or two on a shared edge may differ.
-        assert!(diff * 50 <= a.visible.len().max(50), "{diff} objects differ of {}", a.visible.len());
+        assert!(
+            diff * 50 <= a.visible.len().max(50),
+            "{diff} objects differ of {}",
+            a.visible.len()
+        );
         assert!(!a.visible.is_empty());
     }
 }
@@ -91,7 +118,9 @@ fn batch_equals_single_calls() {
     for method in [Method::Hom, Method::Hzb, Method::Exact] {
         let s = settings(&prep, method, DebVariant::Tiles);
         // More poses than one group of slots, so group boundaries are exercised.
-        let cams: Vec<Camera> = (0..20).map(|i| demo_cams(200, 120)[i % 4].clone()).collect();
+        let cams: Vec<Camera> = (0..20)
+            .map(|i| demo_cams(200, 120)[i % 4].clone())
+            .collect();
         let batched = backend.cull(&prep, &cams, &s).unwrap();
         for (i, cam) in cams.iter().enumerate().take(4) {
             let single = backend.cull(&prep, std::slice::from_ref(cam), &s).unwrap();
@@ -104,12 +133,28 @@ fn batch_equals_single_calls() {
 /// A random scene: a ground quad and boxes of random size and place.
 fn random_scene(boxes: &[(f32, f32, f32, f32, f32)]) -> Scene {
     let mut b = SceneBuilder::default();
-    let g = [Vec3::new(-60.0, 0.0, -60.0), Vec3::new(60.0, 0.0, -60.0), Vec3::new(60.0, 0.0, 60.0), Vec3::new(-60.0, 0.0, 60.0)];
+    let g = [
+        Vec3::new(-60.0, 0.0, -60.0),
+        Vec3::new(60.0, 0.0, -60.0),
+        Vec3::new(60.0, 0.0, 60.0),
+        Vec3::new(-60.0, 0.0, 60.0),
+    ];
     b.push("ground".into(), &g, &[0, 2, 1, 0, 3, 2], None);
     for (i, &(x, z, sx, sy, sz)) in boxes.iter().enumerate() {
         let (lo, hi) = (Vec3::new(x, 0.0, z), Vec3::new(x + sx, sy, z + sz));
-        let c: Vec<Vec3> = (0..8).map(|k| Vec3::new(if k & 1 == 0 { lo.x } else { hi.x }, if k & 2 == 0 { lo.y } else { hi.y }, if k & 4 == 0 { lo.z } else { hi.z })).collect();
-        let idx = [0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5];
+        let c: Vec<Vec3> = (0..8)
+            .map(|k| {
+                Vec3::new(
+                    if k & 1 == 0 { lo.x } else { hi.x },
+                    if k & 2 == 0 { lo.y } else { hi.y },
+                    if k & 4 == 0 { lo.z } else { hi.z },
+                )
+            })
+            .collect();
+        let idx = [
+            0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4,
+            6, 1, 3, 5, 3, 7, 5,
+        ];
         b.push(format!("box_{i}"), &c, &idx, None);
     }
     b.build("random")

@@ -59,7 +59,8 @@ impl SlotTargets {
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
                 format,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::TEXTURE_BINDING,
                 view_formats: &[],
             })
         };
@@ -135,7 +136,12 @@ pub struct GpuBackend {
     draws: Vec<(u32, u32)>,
 }
 
-fn storage(device: &wgpu::Device, label: &str, bytes: &[u8], extra: wgpu::BufferUsages) -> wgpu::Buffer {
+fn storage(
+    device: &wgpu::Device,
+    label: &str,
+    bytes: &[u8],
+    extra: wgpu::BufferUsages,
+) -> wgpu::Buffer {
     let fallback = [0u8; 16];
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some(label),
@@ -153,7 +159,12 @@ impl GpuBackend {
             test: TestPass::new(&ctx),
             oracle: OraclePass::new(&ctx),
             targets: None,
-            draws: prep.scene.objects.iter().map(|o| (o.first_index, o.index_count)).collect(),
+            draws: prep
+                .scene
+                .objects
+                .iter()
+                .map(|o| (o.first_index, o.index_count))
+                .collect(),
             ctx,
         }
     }
@@ -163,14 +174,23 @@ impl GpuBackend {
     }
 
     fn targets(&mut self, width: u32, height: u32) -> &SlotTargets {
-        if self.targets.as_ref().is_none_or(|t| (t.width, t.height) != (width, height)) {
+        if self
+            .targets
+            .as_ref()
+            .is_none_or(|t| (t.width, t.height) != (width, height))
+        {
             self.targets = Some(SlotTargets::new(&self.ctx.device, width, height));
         }
         self.targets.as_ref().expect("just created")
     }
 
     /// Reads back a buffer region (blocking); used for the bitmask and by tests.
-    pub fn read_buffer(&self, encoder: wgpu::CommandEncoder, src: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
+    pub fn read_buffer(
+        &self,
+        encoder: wgpu::CommandEncoder,
+        src: &wgpu::Buffer,
+        size: u64,
+    ) -> Result<Vec<u8>, GpuError> {
         let device = &self.ctx.device;
         let staging = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
@@ -185,7 +205,9 @@ impl GpuBackend {
         staging.slice(..).map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
-        device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
         rx.recv()
             .map_err(|e| GpuError::Readback(e.to_string()))?
             .map_err(|e| GpuError::Readback(e.to_string()))?;
@@ -200,7 +222,11 @@ impl GpuBackend {
 
     /// Runs the occluder raster and pyramid of one group of plans and returns the
     /// opacity and depth pyramids (slot-strided). For GPU-vs-CPU tests.
-    pub fn pyramids(&mut self, plans: &[PosePlan], s: &CullSettings) -> Result<(Vec<f32>, Vec<f32>), GpuError> {
+    pub fn pyramids(
+        &mut self,
+        plans: &[PosePlan],
+        s: &CullSettings,
+    ) -> Result<(Vec<f32>, Vec<f32>), GpuError> {
         self.record_and_read(plans, s, true)?;
         let t = self.targets.as_ref().expect("targets exist after a batch");
         let size = t.layout.total as u64 * plans.len() as u64 * 4;
@@ -208,20 +234,35 @@ impl GpuBackend {
         let opacity = self.read_buffer(enc, &t.opacity, size)?;
         let enc = self.ctx.device.create_command_encoder(&Default::default());
         let depth = self.read_buffer(enc, &t.pyramid_depth, size)?;
-        Ok((bytemuck::cast_slice(&opacity).to_vec(), bytemuck::cast_slice(&depth).to_vec()))
+        Ok((
+            bytemuck::cast_slice(&opacity).to_vec(),
+            bytemuck::cast_slice(&depth).to_vec(),
+        ))
     }
 
-    fn record_and_read(&mut self, plans: &[PosePlan], s: &CullSettings, single_group: bool) -> Result<Vec<Vec<u32>>, GpuError> {
+    fn record_and_read(
+        &mut self,
+        plans: &[PosePlan],
+        s: &CullSettings,
+        single_group: bool,
+    ) -> Result<Vec<Vec<u32>>, GpuError> {
         let (w, h) = (plans[0].cam.width, plans[0].cam.height);
         self.targets(w, h);
         let t = self.targets.as_ref().expect("targets exist");
         let device = &self.ctx.device;
         let p_count = plans.len() as u32;
-        let slots = if single_group { p_count.min(t.slots) } else { t.slots };
+        let slots = if single_group {
+            p_count.min(t.slots)
+        } else {
+            t.slots
+        };
         let words = words_per_pose(self.draws.len()) as u32;
         let exact = s.options.method == Method::Exact;
 
-        let pose_uniforms: Vec<PoseUniform> = plans.iter().map(|p| PoseUniform::new(&p.cam, p.deb.depth[0])).collect();
+        let pose_uniforms: Vec<PoseUniform> = plans
+            .iter()
+            .map(|p| PoseUniform::new(&p.cam, p.deb.depth[0]))
+            .collect();
         let poses = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("poses"),
             contents: &slotted(&pose_uniforms),
@@ -247,7 +288,10 @@ impl GpuBackend {
         });
 
         // Groups of poses sharing the slots, and their candidate ranges.
-        let groups: Vec<(u32, u32)> = (0..p_count).step_by(slots as usize).map(|a| (a, (a + slots).min(p_count))).collect();
+        let groups: Vec<(u32, u32)> = (0..p_count)
+            .step_by(slots as usize)
+            .map(|a| (a, (a + slots).min(p_count)))
+            .collect();
         let mut candidates: Vec<[u32; 2]> = Vec::new();
         let mut group_params = Vec::new();
         for &(a, b) in &groups {
@@ -257,9 +301,19 @@ impl GpuBackend {
             }
             let count = candidates.len() as u32 - start;
             group_params.push(if exact {
-                GroupParams { a: w, b: h, c: words, d: a }
+                GroupParams {
+                    a: w,
+                    b: h,
+                    c: words,
+                    d: a,
+                }
             } else {
-                GroupParams { a: start, b: count, c: a, d: 0 }
+                GroupParams {
+                    a: start,
+                    b: count,
+                    c: a,
+                    d: 0,
+                }
             });
         }
         let group_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -282,9 +336,18 @@ impl GpuBackend {
                 label: Some("oracle"),
                 layout: &self.oracle.layout,
                 entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: dyn_uniform(&group_buf) },
-                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&ids_view) },
-                    wgpu::BindGroupEntry { binding: 2, resource: mask.as_entire_binding() },
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: dyn_uniform(&group_buf),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(&ids_view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: mask.as_entire_binding(),
+                    },
                 ],
             });
             for (g, &(a, b)) in groups.iter().enumerate() {
@@ -295,7 +358,16 @@ impl GpuBackend {
                         let o = &objs[id as usize];
                         (o.0, o.1, id)
                     });
-                    self.raster.record(&mut encoder, RasterKind::ObjectIds, &t.id_layers[(p - a) as usize], &t.depth_view, &pose_bg, p, &self.scene, draws);
+                    self.raster.record(
+                        &mut encoder,
+                        RasterKind::ObjectIds,
+                        &t.id_layers[(p - a) as usize],
+                        &t.depth_view,
+                        &pose_bg,
+                        p,
+                        &self.scene,
+                        draws,
+                    );
                 }
                 self.oracle.record(&mut encoder, &bg, g as u32, w, h, b - a);
             }
@@ -318,9 +390,18 @@ impl GpuBackend {
                             size: wgpu::BufferSize::new(std::mem::size_of::<LevelParams>() as u64),
                         }),
                     },
-                    wgpu::BindGroupEntry { binding: 1, resource: t.opacity.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 2, resource: t.pyramid_depth.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&occlusion_view) },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: t.opacity.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: t.pyramid_depth.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: wgpu::BindingResource::TextureView(&occlusion_view),
+                    },
                 ],
             });
             let deb0 = &plans[0].deb;
@@ -339,22 +420,62 @@ impl GpuBackend {
                 contents: bytemuck::bytes_of(&cfg),
                 usage: wgpu::BufferUsages::UNIFORM,
             });
-            let deb_tiles: Vec<f32> = plans.iter().flat_map(|p| p.deb.depth.iter().copied()).collect();
-            let cand_buf = storage(device, "candidates", bytemuck::cast_slice(&candidates), wgpu::BufferUsages::empty());
-            let deb_buf = storage(device, "deb tiles", bytemuck::cast_slice(&deb_tiles), wgpu::BufferUsages::empty());
+            let deb_tiles: Vec<f32> = plans
+                .iter()
+                .flat_map(|p| p.deb.depth.iter().copied())
+                .collect();
+            let cand_buf = storage(
+                device,
+                "candidates",
+                bytemuck::cast_slice(&candidates),
+                wgpu::BufferUsages::empty(),
+            );
+            let deb_buf = storage(
+                device,
+                "deb tiles",
+                bytemuck::cast_slice(&deb_tiles),
+                wgpu::BufferUsages::empty(),
+            );
             let test_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("test"),
                 layout: &self.test.layout,
                 entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: cfg_buf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: dyn_uniform(&group_buf) },
-                    wgpu::BindGroupEntry { binding: 2, resource: poses.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 3, resource: self.scene.boxes.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 4, resource: cand_buf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 5, resource: deb_buf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 6, resource: t.opacity.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 7, resource: t.pyramid_depth.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 8, resource: mask.as_entire_binding() },
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: cfg_buf.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: dyn_uniform(&group_buf),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: poses.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: self.scene.boxes.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: cand_buf.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 5,
+                        resource: deb_buf.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 6,
+                        resource: t.opacity.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 7,
+                        resource: t.pyramid_depth.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 8,
+                        resource: mask.as_entire_binding(),
+                    },
                 ],
             });
             for (g, &(a, b)) in groups.iter().enumerate() {
@@ -365,15 +486,28 @@ impl GpuBackend {
                         let o = &objs[id as usize];
                         (o.0, o.1, id)
                     });
-                    self.raster.record(&mut encoder, RasterKind::OccluderDepth, &t.occlusion_layers[(p - a) as usize], &t.depth_view, &pose_bg, p, &self.scene, draws);
+                    self.raster.record(
+                        &mut encoder,
+                        RasterKind::OccluderDepth,
+                        &t.occlusion_layers[(p - a) as usize],
+                        &t.depth_view,
+                        &pose_bg,
+                        p,
+                        &self.scene,
+                        draws,
+                    );
                 }
                 self.pyramid.record(&mut encoder, &pyr_bg, &t.layout, b - a);
-                self.test.record(&mut encoder, &test_bg, g as u32, group_params[g].b);
+                self.test
+                    .record(&mut encoder, &test_bg, g as u32, group_params[g].b);
             }
         }
         let bytes = self.read_buffer(encoder, &mask, (p_count * words) as u64 * 4)?;
         let all: &[u32] = bytemuck::cast_slice(&bytes);
-        Ok(all.chunks_exact(words as usize).map(|c| c.to_vec()).collect())
+        Ok(all
+            .chunks_exact(words as usize)
+            .map(|c| c.to_vec())
+            .collect())
     }
 }
 
@@ -382,7 +516,12 @@ impl Culler for GpuBackend {
         self.ctx.describe()
     }
 
-    fn visibility(&mut self, _prep: &PreparedScene, plans: &[PosePlan], s: &CullSettings) -> Result<Vec<Vec<u32>>, CullError> {
+    fn visibility(
+        &mut self,
+        _prep: &PreparedScene,
+        plans: &[PosePlan],
+        s: &CullSettings,
+    ) -> Result<Vec<Vec<u32>>, CullError> {
         if plans.is_empty() {
             return Ok(Vec::new());
         }

@@ -25,7 +25,11 @@ impl LevelParams {
         (0..layout.levels())
             .map(|l| {
                 let (dst_w, dst_h) = layout.dims[l];
-                let (src_w, src_h) = if l == 0 { (dst_w, dst_h) } else { layout.dims[l - 1] };
+                let (src_w, src_h) = if l == 0 {
+                    (dst_w, dst_h)
+                } else {
+                    layout.dims[l - 1]
+                };
                 LevelParams {
                     src_offset: if l == 0 { 0 } else { layout.offsets[l - 1] },
                     dst_offset: layout.offsets[l],
@@ -50,29 +54,34 @@ pub struct PyramidPass {
 impl PyramidPass {
     pub fn new(ctx: &GpuContext) -> Self {
         let module = ctx.shader("pyramid", include_str!("shaders/pyramid.wgsl"));
-        let layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("pyramid"),
-            entries: &[
-                uniform_entry(0, true, wgpu::ShaderStages::COMPUTE),
-                storage_entry(1, false),
-                storage_entry(2, false),
-                texture_array_entry(3, wgpu::TextureSampleType::Float { filterable: false }),
-            ],
-        });
-        let pl = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("pyramid"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
+        let layout = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("pyramid"),
+                entries: &[
+                    uniform_entry(0, true, wgpu::ShaderStages::COMPUTE),
+                    storage_entry(1, false),
+                    storage_entry(2, false),
+                    texture_array_entry(3, wgpu::TextureSampleType::Float { filterable: false }),
+                ],
+            });
+        let pl = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("pyramid"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
         let pipeline = |entry| {
-            ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
+            ctx.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: Some(&pl),
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
         };
         PyramidPass {
             level0: pipeline("level0"),
@@ -83,7 +92,13 @@ impl PyramidPass {
 
     /// Records level 0 and every reduction for `slots` poses. `bind_group` binds the
     /// level-parameter slots, the pyramid buffers and the raster texture array.
-    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, bind_group: &wgpu::BindGroup, layout: &LevelLayout, slots: u32) {
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        bind_group: &wgpu::BindGroup,
+        layout: &LevelLayout,
+        slots: u32,
+    ) {
         for l in 0..layout.levels() {
             let (w, h) = layout.dims[l];
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {

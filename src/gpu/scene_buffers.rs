@@ -39,7 +39,12 @@ impl SceneBuffers {
             .boxes
             .iter()
             .map(|b| GpuTestBox {
-                min_obj: [b.aabb.min.x, b.aabb.min.y, b.aabb.min.z, f32::from_bits(b.object)],
+                min_obj: [
+                    b.aabb.min.x,
+                    b.aabb.min.y,
+                    b.aabb.min.z,
+                    f32::from_bits(b.object),
+                ],
                 max: [b.aabb.max.x, b.aabb.max.y, b.aabb.max.z, 0.0],
             })
             .collect();
@@ -47,9 +52,21 @@ impl SceneBuffers {
             boxes.push(bytemuck::Zeroable::zeroed());
         }
         SceneBuffers {
-            vertices: init("scene vertices", bytemuck::cast_slice(&verts), wgpu::BufferUsages::VERTEX),
-            indices: init("scene indices", bytemuck::cast_slice(&indices), wgpu::BufferUsages::INDEX),
-            boxes: init("scene test boxes", bytemuck::cast_slice(&boxes), wgpu::BufferUsages::STORAGE),
+            vertices: init(
+                "scene vertices",
+                bytemuck::cast_slice(&verts),
+                wgpu::BufferUsages::VERTEX,
+            ),
+            indices: init(
+                "scene indices",
+                bytemuck::cast_slice(&indices),
+                wgpu::BufferUsages::INDEX,
+            ),
+            boxes: init(
+                "scene test boxes",
+                bytemuck::cast_slice(&boxes),
+                wgpu::BufferUsages::STORAGE,
+            ),
         }
     }
 }

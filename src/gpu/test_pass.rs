@@ -24,7 +24,16 @@ pub struct TestConfig {
 
 impl TestConfig {
     #[allow(clippy::too_many_arguments)]
-    pub fn new(method: Method, deb: DebVariant, layout: &LevelLayout, thresholds: &[f32], deb_tile: u32, deb_cols: u32, deb_rows: u32, words_per_pose: u32) -> Self {
+    pub fn new(
+        method: Method,
+        deb: DebVariant,
+        layout: &LevelLayout,
+        thresholds: &[f32],
+        deb_tile: u32,
+        deb_cols: u32,
+        deb_rows: u32,
+        words_per_pose: u32,
+    ) -> Self {
         let mut dims = [[0; 4]; MAX_LEVELS];
         let mut thr = [[0.0; 4]; MAX_LEVELS];
         for l in 0..layout.levels() {
@@ -81,33 +90,49 @@ impl TestPass {
         .chain((2..=7).map(|b| storage_entry(b, true)))
         .chain([storage_entry(8, false)])
         .collect();
-        let layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("test"),
-            entries: &entries,
-        });
-        let pl = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("test"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("test"),
-            layout: Some(&pl),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let layout = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("test"),
+                entries: &entries,
+            });
+        let pl = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("test"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+        let pipeline = ctx
+            .device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("test"),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some("main"),
+                compilation_options: Default::default(),
+                cache: None,
+            });
         TestPass { layout, pipeline }
     }
 
     /// Records the test of `count` candidates of group `group` (its params slot).
-    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, bind_group: &wgpu::BindGroup, group: u32, count: u32) {
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        bind_group: &wgpu::BindGroup,
+        group: u32,
+        count: u32,
+    ) {
         if count == 0 {
             return;
         }
         let groups = count.div_ceil(WG);
-        let (x, y) = if groups <= MAX_DIM { (groups, 1) } else { (MAX_DIM, groups.div_ceil(MAX_DIM)) };
+        let (x, y) = if groups <= MAX_DIM {
+            (groups, 1)
+        } else {
+            (MAX_DIM, groups.div_ceil(MAX_DIM))
+        };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("object test"),
             timestamp_writes: None,

@@ -31,7 +31,12 @@ pub struct DepthEstimationBuffer {
 impl DepthEstimationBuffer {
     /// Builds the buffer of a box-based variant; the raster variant gets an empty
     /// 1×1 buffer (its depths come from the pyramid).
-    pub fn build(variant: DebVariant, tile: u32, cam: &Camera, occluders: impl Iterator<Item = Aabb>) -> Self {
+    pub fn build(
+        variant: DebVariant,
+        tile: u32,
+        cam: &Camera,
+        occluders: impl Iterator<Item = Aabb>,
+    ) -> Self {
         let tile = match variant {
             DebVariant::Tiles => tile.max(1),
             _ => cam.width.max(cam.height),
@@ -49,12 +54,18 @@ impl DepthEstimationBuffer {
         }
         let mut touched = vec![false; deb.depth.len()];
         for b in occluders {
-            let Some(r) = cam.project_box(&b) else { continue };
+            let Some(r) = cam.project_box(&b) else {
+                continue;
+            };
             let (tx0, ty0, tx1, ty1) = deb.tile_range(&r);
             for ty in ty0..=ty1 {
                 for tx in tx0..=tx1 {
                     let i = (ty * cols + tx) as usize;
-                    deb.depth[i] = if touched[i] { deb.depth[i].max(r.far) } else { r.far };
+                    deb.depth[i] = if touched[i] {
+                        deb.depth[i].max(r.far)
+                    } else {
+                        r.far
+                    };
                     touched[i] = true;
                 }
             }
@@ -64,13 +75,20 @@ impl DepthEstimationBuffer {
 
     /// Inclusive tile range a rect touches.
     pub fn tile_range(&self, r: &ScreenRect) -> (u32, u32, u32, u32) {
-        (r.x0 / self.tile, r.y0 / self.tile, (r.x1 - 1) / self.tile, (r.y1 - 1) / self.tile)
+        (
+            r.x0 / self.tile,
+            r.y0 / self.tile,
+            (r.x1 - 1) / self.tile,
+            (r.y1 - 1) / self.tile,
+        )
     }
 
     /// Whether every tile the rect touches lies in front of `near` (see [`super::in_front`]).
     pub fn all_in_front(&self, r: &ScreenRect, near: f32) -> bool {
         let (tx0, ty0, tx1, ty1) = self.tile_range(r);
-        (ty0..=ty1).all(|ty| (tx0..=tx1).all(|tx| super::in_front(self.depth[(ty * self.cols + tx) as usize], near)))
+        (ty0..=ty1).all(|ty| {
+            (tx0..=tx1).all(|tx| super::in_front(self.depth[(ty * self.cols + tx) as usize], near))
+        })
     }
 }
 
@@ -86,10 +104,11 @@ mod tests {
         let near_box = Aabb::new(Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 1.0));
         let deb = DepthEstimationBuffer::build(DebVariant::Tiles, 64, &cam, [near_box].into_iter());
         assert_eq!((deb.cols, deb.rows), (4, 2));
-        let centre = (1 * deb.cols + 2) as usize;
+        let centre = (deb.cols + 2) as usize;
         assert!((deb.depth[centre] - 10.0).abs() < 1e-4);
         assert_eq!(deb.depth[0], f32::INFINITY);
-        let plane = DepthEstimationBuffer::build(DebVariant::Plane, 64, &cam, [near_box].into_iter());
+        let plane =
+            DepthEstimationBuffer::build(DebVariant::Plane, 64, &cam, [near_box].into_iter());
         assert_eq!(plane.depth.len(), 1);
         assert!((plane.depth[0] - 10.0).abs() < 1e-4);
     }

@@ -36,7 +36,11 @@ impl LevelLayout {
             offsets.push(total);
             total += w * h;
         }
-        LevelLayout { dims, offsets, total }
+        LevelLayout {
+            dims,
+            offsets,
+            total,
+        }
     }
 
     pub fn levels(&self) -> usize {
@@ -67,7 +71,16 @@ pub fn reduce(layout: &LevelLayout, opacity: &mut [f32], depth: &mut [f32]) {
 
 #[allow(clippy::too_many_arguments)]
 #[inline]
-fn reduce_texel(layout: &LevelLayout, l: usize, x: u32, y: u32, sw: u32, sh: u32, opacity: &[f32], depth: &[f32]) -> (f32, f32) {
+fn reduce_texel(
+    layout: &LevelLayout,
+    l: usize,
+    x: u32,
+    y: u32,
+    sw: u32,
+    sh: u32,
+    opacity: &[f32],
+    depth: &[f32],
+) -> (f32, f32) {
     let mut sum = 0.0f32;
     let mut max_d = 0.0f32;
     for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {

@@ -74,7 +74,12 @@ fn owns_edge(a: ScreenVertex, b: ScreenVertex) -> bool {
     (dy == 0.0 && dx > 0.0) || dy < 0.0
 }
 
-fn raster_screen_triangle(width: u32, height: u32, mut v: [ScreenVertex; 3], plot: &mut impl FnMut(u32, u32, f32)) {
+fn raster_screen_triangle(
+    width: u32,
+    height: u32,
+    mut v: [ScreenVertex; 3],
+    plot: &mut impl FnMut(u32, u32, f32),
+) {
     let mut area = edge(v[0], v[1], v[2].x, v[2].y);
     if area == 0.0 || !area.is_finite() {
         return;
@@ -94,7 +99,11 @@ fn raster_screen_triangle(width: u32, height: u32, mut v: [ScreenVertex; 3], plo
     if x0 > x1 || y0 > y1 {
         return;
     }
-    let owns = [owns_edge(v[1], v[2]), owns_edge(v[2], v[0]), owns_edge(v[0], v[1])];
+    let owns = [
+        owns_edge(v[1], v[2]),
+        owns_edge(v[2], v[0]),
+        owns_edge(v[0], v[1]),
+    ];
     let inside = |e: f64, own: bool| e > 0.0 || (e == 0.0 && own);
     for y in y0 as u32..=y1 as u32 {
         let py = y as f64 + 0.5;
@@ -112,7 +121,11 @@ fn raster_screen_triangle(width: u32, height: u32, mut v: [ScreenVertex; 3], plo
 }
 
 /// Renders triangles into a nearest-depth map (`0` = uncovered), `width × height`.
-pub fn raster_depth<'a>(cam: &Camera, tris: impl Iterator<Item = [Vec3; 3]> + 'a, depth: &mut [f32]) {
+pub fn raster_depth<'a>(
+    cam: &Camera,
+    tris: impl Iterator<Item = [Vec3; 3]> + 'a,
+    depth: &mut [f32],
+) {
     let w = cam.width;
     for t in tris {
         raster_triangle(cam, t, |x, y, d| {
@@ -125,7 +138,12 @@ pub fn raster_depth<'a>(cam: &Camera, tris: impl Iterator<Item = [Vec3; 3]> + 'a
 }
 
 /// Renders triangles into an ID buffer with a depth test (nearest wins, first on ties).
-pub fn raster_ids(cam: &Camera, tris: impl Iterator<Item = (u32, [Vec3; 3])>, ids: &mut [u32], depth: &mut [f32]) {
+pub fn raster_ids(
+    cam: &Camera,
+    tris: impl Iterator<Item = (u32, [Vec3; 3])>,
+    ids: &mut [u32],
+    depth: &mut [f32],
+) {
     let w = cam.width;
     for (id, t) in tris {
         raster_triangle(cam, t, |x, y, d| {
@@ -146,7 +164,12 @@ mod tests {
     #[test]
     fn shared_edges_cover_each_pixel_once() {
         let cam = look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 64, 48);
-        let q = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)];
+        let q = [
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(-1.0, 1.0, 0.0),
+        ];
         let mut count = vec![0u32; 64 * 48];
         for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
             raster_triangle(&cam, t, |x, y, d| {
@@ -162,9 +185,18 @@ mod tests {
     fn near_clipping_keeps_the_visible_part() {
         // A floor quad running from behind the camera to far ahead.
         let cam = look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 1.0, -1.0), 64, 64);
-        let q = [Vec3::new(-5.0, 0.0, 5.0), Vec3::new(5.0, 0.0, 5.0), Vec3::new(5.0, 0.0, -50.0), Vec3::new(-5.0, 0.0, -50.0)];
+        let q = [
+            Vec3::new(-5.0, 0.0, 5.0),
+            Vec3::new(5.0, 0.0, 5.0),
+            Vec3::new(5.0, 0.0, -50.0),
+            Vec3::new(-5.0, 0.0, -50.0),
+        ];
         let mut depth = vec![0.0; 64 * 64];
-        raster_depth(&cam, [[q[0], q[1], q[2]], [q[0], q[2], q[3]]].into_iter(), &mut depth);
+        raster_depth(
+            &cam,
+            [[q[0], q[1], q[2]], [q[0], q[2], q[3]]].into_iter(),
+            &mut depth,
+        );
         // Bottom row is covered, top half (sky) is not.
         assert!(depth[63 * 64 + 32] > 0.0);
         assert_eq!(depth[10 * 64 + 32], 0.0);

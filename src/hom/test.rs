@@ -39,7 +39,13 @@ pub struct PyramidView<'a> {
 }
 
 /// True if HOM proves the rect hidden.
-pub fn hom_occluded(r: &ScreenRect, p: &PyramidView, thresholds: &[f32], variant: DebVariant, deb: &DepthEstimationBuffer) -> bool {
+pub fn hom_occluded(
+    r: &ScreenRect,
+    p: &PyramidView,
+    thresholds: &[f32],
+    variant: DebVariant,
+    deb: &DepthEstimationBuffer,
+) -> bool {
     if variant != DebVariant::Raster && !deb.all_in_front(r, r.near) {
         return false;
     }
@@ -86,7 +92,11 @@ pub fn hzb_occluded(r: &ScreenRect, p: &PyramidView) -> bool {
     for ty in (r.y0 >> k)..=((r.y1 - 1) >> k) {
         for tx in (r.x0 >> k)..=((r.x1 - 1) >> k) {
             let i = p.layout.index(k, tx, ty);
-            let d = if p.opacity[i] >= 1.0 { p.depth[i] } else { f32::INFINITY };
+            let d = if p.opacity[i] >= 1.0 {
+                p.depth[i]
+            } else {
+                f32::INFINITY
+            };
             if !in_front(d, r.near) {
                 return false;
             }
@@ -101,15 +111,24 @@ mod tests {
     use crate::hom::{level_thresholds, pyramid};
 
     fn rect(x0: u32, y0: u32, x1: u32, y1: u32, near: f32) -> ScreenRect {
-        ScreenRect { x0, y0, x1, y1, near, far: near + 1.0 }
+        ScreenRect {
+            x0,
+            y0,
+            x1,
+            y1,
+            near,
+            far: near + 1.0,
+        }
     }
 
     /// Brute force: every pixel of the rect covered by an occluder in front.
     fn brute(r: &ScreenRect, w: u32, depth0: &[f32]) -> bool {
-        (r.y0..r.y1).all(|y| (r.x0..r.x1).all(|x| {
-            let d = depth0[(y * w + x) as usize];
-            d > 0.0 && in_front(d, r.near)
-        }))
+        (r.y0..r.y1).all(|y| {
+            (r.x0..r.x1).all(|x| {
+                let d = depth0[(y * w + x) as usize];
+                d > 0.0 && in_front(d, r.near)
+            })
+        })
     }
 
     #[test]
@@ -119,14 +138,27 @@ mod tests {
         let depth0: Vec<f32> = (0..w * h)
             .map(|i| {
                 let (x, y) = ((i % w) as i32, (i / w) as i32);
-                if (x - 15).pow(2) + (y - 11).pow(2) < 90 || (x > 28 && y < 15) { 5.0 + (x % 4) as f32 } else { 0.0 }
+                if (x - 15).pow(2) + (y - 11).pow(2) < 90 || (x > 28 && y < 15) {
+                    5.0 + (x % 4) as f32
+                } else {
+                    0.0
+                }
             })
             .collect();
         let layout = LevelLayout::new(w, h);
         let (opacity, depth) = pyramid::build(&layout, &depth0);
-        let view = PyramidView { layout: &layout, opacity: &opacity, depth: &depth };
+        let view = PyramidView {
+            layout: &layout,
+            opacity: &opacity,
+            depth: &depth,
+        };
         let thr = level_thresholds(1.0, layout.levels());
-        let deb = DepthEstimationBuffer { tile: 64, cols: 1, rows: 1, depth: vec![0.0] };
+        let deb = DepthEstimationBuffer {
+            tile: 64,
+            cols: 1,
+            rows: 1,
+            depth: vec![0.0],
+        };
         let mut culled = 0;
         for x0 in 0..w {
             for y0 in (0..h).step_by(3) {
@@ -135,7 +167,11 @@ mod tests {
                     for near in [4.0, 7.0, 9.5] {
                         let r = rect(x0, y0, x1, y1, near);
                         let want = brute(&r, w, &depth0);
-                        assert_eq!(hom_occluded(&r, &view, &thr, DebVariant::Raster, &deb), want, "{r:?}");
+                        assert_eq!(
+                            hom_occluded(&r, &view, &thr, DebVariant::Raster, &deb),
+                            want,
+                            "{r:?}"
+                        );
                         culled += want as u32;
                         if hzb_occluded(&r, &view) {
                             assert!(want, "hzb culled a visible rect {r:?}");
@@ -151,10 +187,31 @@ mod tests {
     fn box_deb_gates_the_overlap_test() {
         let layout = LevelLayout::new(8, 8);
         let (opacity, depth) = pyramid::build(&layout, &[3.0; 64]);
-        let view = PyramidView { layout: &layout, opacity: &opacity, depth: &depth };
+        let view = PyramidView {
+            layout: &layout,
+            opacity: &opacity,
+            depth: &depth,
+        };
         let thr = level_thresholds(1.0, layout.levels());
-        let deb = DepthEstimationBuffer { tile: 4, cols: 2, rows: 2, depth: vec![3.0, 3.0, 3.0, 10.0] };
-        assert!(hom_occluded(&rect(0, 0, 4, 4, 5.0), &view, &thr, DebVariant::Tiles, &deb));
-        assert!(!hom_occluded(&rect(2, 2, 6, 6, 5.0), &view, &thr, DebVariant::Tiles, &deb));
+        let deb = DepthEstimationBuffer {
+            tile: 4,
+            cols: 2,
+            rows: 2,
+            depth: vec![3.0, 3.0, 3.0, 10.0],
+        };
+        assert!(hom_occluded(
+            &rect(0, 0, 4, 4, 5.0),
+            &view,
+            &thr,
+            DebVariant::Tiles,
+            &deb
+        ));
+        assert!(!hom_occluded(
+            &rect(2, 2, 6, 6, 5.0),
+            &view,
+            &thr,
+            DebVariant::Tiles,
+            &deb
+        ));
     }
 }

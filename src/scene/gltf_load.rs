@@ -18,7 +18,10 @@ use super::{Scene, SceneBuilder};
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
     #[error("cannot read {path}: {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("not a valid glTF/GLB file: {0}")]
     Gltf(#[from] gltf::Error),
     #[error("buffer {index}: {reason}")]
@@ -26,7 +29,11 @@ pub enum LoadError {
     #[error("the file has no scene with mesh nodes")]
     NoObjects,
     #[error("mesh {mesh} primitive {primitive}: {reason}")]
-    Primitive { mesh: usize, primitive: usize, reason: String },
+    Primitive {
+        mesh: usize,
+        primitive: usize,
+        reason: String,
+    },
 }
 
 /// Loads a `.glb` or `.gltf` file; external buffers are resolved next to it.
@@ -35,7 +42,10 @@ pub fn load_path(path: &Path) -> Result<Scene, LoadError> {
         path: path.display().to_string(),
         source,
     })?;
-    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
     load(&bytes, &name, path.parent())
 }
 
@@ -47,7 +57,10 @@ pub fn load_glb_bytes(bytes: &[u8], name: &str) -> Result<Scene, LoadError> {
 fn load(bytes: &[u8], name: &str, base: Option<&Path>) -> Result<Scene, LoadError> {
     let gltf = gltf::Gltf::from_slice(bytes)?;
     let buffers = read_buffers(&gltf, base)?;
-    let scene = gltf.default_scene().or_else(|| gltf.scenes().next()).ok_or(LoadError::NoObjects)?;
+    let scene = gltf
+        .default_scene()
+        .or_else(|| gltf.scenes().next())
+        .ok_or(LoadError::NoObjects)?;
 
     let mut builder = SceneBuilder::default();
     let mut warnings = Vec::new();
@@ -63,7 +76,10 @@ fn load(bytes: &[u8], name: &str, base: Option<&Path>) -> Result<Scene, LoadErro
                 .or(mesh.name())
                 .map(str::to_owned)
                 .unwrap_or_else(|| format!("object_{id}"));
-            let extras = node.extras().as_ref().and_then(|raw| serde_json::from_str(raw.get()).ok());
+            let extras = node
+                .extras()
+                .as_ref()
+                .and_then(|raw| serde_json::from_str(raw.get()).ok());
             builder.push(name, &vertices, &indices, extras);
         }
         // Children go on the stack in reverse so the first child is visited first.
@@ -75,7 +91,10 @@ fn load(bytes: &[u8], name: &str, base: Option<&Path>) -> Result<Scene, LoadErro
         return Err(LoadError::NoObjects);
     }
     let mut out = builder.build(name);
-    out.extras = scene.extras().as_ref().and_then(|raw| serde_json::from_str(raw.get()).ok());
+    out.extras = scene
+        .extras()
+        .as_ref()
+        .and_then(|raw| serde_json::from_str(raw.get()).ok());
     out.warnings = warnings;
     for w in &out.warnings {
         tracing::warn!(scene = name, "{w}");
@@ -89,24 +108,38 @@ fn read_buffers(gltf: &gltf::Gltf, base: Option<&Path>) -> Result<Vec<Vec<u8>>, 
             let index = buffer.index();
             let err = |reason: String| LoadError::Buffer { index, reason };
             let data = match buffer.source() {
-                gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| err("GLB has no BIN chunk".into()))?,
+                gltf::buffer::Source::Bin => gltf
+                    .blob
+                    .clone()
+                    .ok_or_else(|| err("GLB has no BIN chunk".into()))?,
                 gltf::buffer::Source::Uri(uri) => {
                     if let Some(rest) = uri.strip_prefix("data:") {
-                        let (_, payload) = rest.split_once(";base64,").ok_or_else(|| err("data URI is not base64".into()))?;
+                        let (_, payload) = rest
+                            .split_once(";base64,")
+                            .ok_or_else(|| err("data URI is not base64".into()))?;
                         base64::engine::general_purpose::STANDARD
                             .decode(payload)
                             .map_err(|e| err(format!("bad base64: {e}")))?
                     } else {
-                        let base = base.ok_or_else(|| err(format!("external buffer `{uri}` needs a file path")))?;
+                        let base = base.ok_or_else(|| {
+                            err(format!("external buffer `{uri}` needs a file path"))
+                        })?;
                         if uri.contains("..") || uri.starts_with('/') {
-                            return Err(err(format!("refusing buffer path `{uri}` outside the scene folder")));
+                            return Err(err(format!(
+                                "refusing buffer path `{uri}` outside the scene folder"
+                            )));
                         }
-                        std::fs::read(base.join(uri)).map_err(|e| err(format!("cannot read `{uri}`: {e}")))?
+                        std::fs::read(base.join(uri))
+                            .map_err(|e| err(format!("cannot read `{uri}`: {e}")))?
                     }
                 }
             };
             if data.len() < buffer.length() {
-                return Err(err(format!("holds {} bytes, declares {}", data.len(), buffer.length())));
+                return Err(err(format!(
+                    "holds {} bytes, declares {}",
+                    data.len(),
+                    buffer.length()
+                )));
             }
             Ok(data)
         })
@@ -129,7 +162,10 @@ fn mesh_triangles(
             reason: reason.into(),
         };
         let mode = prim.mode();
-        if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+        if !matches!(
+            mode,
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+        ) {
             warnings.push(format!(
                 "mesh {} primitive {}: {:?} primitives are not triangles, skipped",
                 mesh.index(),
@@ -140,7 +176,11 @@ fn mesh_triangles(
         }
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.as_slice()));
         let Some(positions) = reader.read_positions() else {
-            warnings.push(format!("mesh {} primitive {}: no POSITION, skipped", mesh.index(), prim.index()));
+            warnings.push(format!(
+                "mesh {} primitive {}: no POSITION, skipped",
+                mesh.index(),
+                prim.index()
+            ));
             continue;
         };
         let base = vertices.len() as u32;
@@ -167,7 +207,9 @@ fn mesh_triangles(
                     }
                 })
                 .collect(),
-            _ => (2..local.len()).flat_map(|i| [local[0], local[i - 1], local[i]]).collect(),
+            _ => (2..local.len())
+                .flat_map(|i| [local[0], local[i - 1], local[i]])
+                .collect(),
         };
         // A negative-determinant transform mirrors the mesh: flip winding to keep
         // counter-clockwise front faces.

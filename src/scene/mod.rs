@@ -67,7 +67,12 @@ pub struct Scene {
 impl Scene {
     /// Builds a scene from objects whose index ranges point into `positions`/`indices`.
     /// Computes bounds and test boxes.
-    pub fn new(name: impl Into<String>, objects: Vec<Object>, positions: Vec<Vec3>, indices: Vec<u32>) -> Self {
+    pub fn new(
+        name: impl Into<String>,
+        objects: Vec<Object>,
+        positions: Vec<Vec3>,
+        indices: Vec<u32>,
+    ) -> Self {
         let bounds = objects.iter().fold(Aabb::EMPTY, |b, o| b.union(o.aabb));
         let mut scene = Scene {
             name: name.into(),
@@ -125,13 +130,20 @@ impl SceneBuilder {
     /// Adds an object from world-space vertices and a triangle list indexing them.
     /// Degenerate index lists (fewer than one triangle) still create the object, with no
     /// geometry and an empty box, so IDs stay aligned with the source nodes.
-    pub fn push(&mut self, name: String, vertices: &[Vec3], tri_indices: &[u32], extras: Option<serde_json::Value>) -> u32 {
+    pub fn push(
+        &mut self,
+        name: String,
+        vertices: &[Vec3],
+        tri_indices: &[u32],
+        extras: Option<serde_json::Value>,
+    ) -> u32 {
         let id = self.objects.len() as u32;
         let base = self.positions.len() as u32;
         let first_index = self.indices.len() as u32;
         self.positions.extend_from_slice(vertices);
         let whole = tri_indices.len() / 3 * 3;
-        self.indices.extend(tri_indices[..whole].iter().map(|i| base + i));
+        self.indices
+            .extend(tri_indices[..whole].iter().map(|i| base + i));
         let index_count = whole as u32;
         let aabb = Aabb::from_points(tri_indices[..whole].iter().map(|&i| &vertices[i as usize]));
         self.objects.push(Object {

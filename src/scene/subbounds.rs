@@ -82,7 +82,11 @@ pub fn split_into_groups(tris: &[u32], pos: &[Vec3], params: &SubBoundsParams) -
     }
     done.sort_unstable();
     done.into_iter()
-        .map(|(a, b)| items[a..b].iter().fold(Aabb::EMPTY, |acc, it| acc.union(it.1)))
+        .map(|(a, b)| {
+            items[a..b]
+                .iter()
+                .fold(Aabb::EMPTY, |acc, it| acc.union(it.1))
+        })
         .collect()
 }
 
@@ -98,7 +102,11 @@ mod tests {
         for i in 0..100 {
             let x = i as f32;
             let b = pos.len() as u32;
-            pos.extend([Vec3::new(x, 0.0, 0.0), Vec3::new(x + 0.5, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)]);
+            pos.extend([
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x + 0.5, 0.0, 0.0),
+                Vec3::new(x, 1.0, 0.0),
+            ]);
             idx.extend([b, b + 1, b + 2]);
         }
         let p = SubBoundsParams {
@@ -110,11 +118,18 @@ mod tests {
         assert!(groups.len() > 8 && groups.len() <= 64);
         for t in idx.chunks_exact(3) {
             let b = tri_box(t, &pos);
-            assert!(groups.iter().any(|g| g.contains(b.min) && g.contains(b.max)));
+            assert!(
+                groups
+                    .iter()
+                    .any(|g| g.contains(b.min) && g.contains(b.max))
+            );
         }
         let total: f32 = groups.iter().map(|g| g.extent().x).sum();
         assert!(total < 99.0, "groups must be tighter than the whole box");
-        assert_eq!(split_into_groups(&idx, &pos, &SubBoundsParams::WHOLE).len(), 1);
+        assert_eq!(
+            split_into_groups(&idx, &pos, &SubBoundsParams::WHOLE).len(),
+            1
+        );
         assert!(split_into_groups(&[], &pos, &p).is_empty());
     }
 }

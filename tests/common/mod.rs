@@ -17,7 +17,9 @@ pub fn gpu() -> Option<Arc<GpuContext>> {
         }
         Err(e) => {
             assert!(!require_gpu(), "HOMCULL_REQUIRE_GPU=1 but no adapter: {e}");
-            eprintln!("SKIP: no GPU adapter ({e}); set HOMCULL_REQUIRE_GPU=1 to make this a failure");
+            eprintln!(
+                "SKIP: no GPU adapter ({e}); set HOMCULL_REQUIRE_GPU=1 to make this a failure"
+            );
             None
         }
     })
