@@ -22,6 +22,8 @@ pub struct BoxBvh {
     bvh: Bvh2,
     /// Maps BVH primitive slots to the caller's item index (empty boxes are left out).
     items: Vec<u32>,
+    /// The box of each item, to test the primitives of a leaf one by one.
+    boxes: Vec<Aabb>,
 }
 
 impl BoxBvh {
@@ -43,7 +45,11 @@ impl BoxBvh {
                 &mut Default::default(),
             )
         };
-        BoxBvh { bvh, items }
+        BoxBvh {
+            bvh,
+            items,
+            boxes: boxes.to_vec(),
+        }
     }
 
     /// Calls `f` with the index of every box that intersects the camera's frustum
@@ -65,7 +71,11 @@ impl BoxBvh {
             let node = &nodes[i as usize];
             if node.is_leaf() {
                 for slot in node.first_index..node.first_index + node.prim_count {
-                    f(self.items[self.bvh.primitive_indices[slot as usize] as usize]);
+                    let item = self.items[self.bvh.primitive_indices[slot as usize] as usize];
+                    // A leaf can hold several boxes: test each one, not just the leaf's.
+                    if cam.intersects(&self.boxes[item as usize]) {
+                        f(item);
+                    }
                 }
             } else {
                 stack.push(node.first_index);

@@ -451,7 +451,7 @@ mod tests {
     }
 
     #[test]
-    fn low_ceiling_and_enclosed_floors_are_rejected() {
+    fn floor_without_headroom_is_rejected() {
         // A 1.5 m high table top over the whole ground: the ground below it lacks
         // headroom, so eyes stand on the table instead.
         let mut b = SceneBuilder::default();

@@ -24,10 +24,10 @@ fn floor(scene: &str) -> f64 {
         "demo" => 0.97,
         "munich" => 0.95,
         "etoile" => 0.86,
-        "oa_shouse" => 0.76,
-        "oa_dm1" => 0.78,
-        "godot_room" => 0.85,
-        "fzk_haus" => 0.55,
+        "oa_shouse" => 0.72,
+        "oa_dm1" => 0.73,
+        "godot_room" => 0.70,
+        "fzk_haus" => 0.37,
         _ => 0.5,
     }
 }
