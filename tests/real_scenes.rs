@@ -22,8 +22,8 @@ const POSES: usize = 200;
 fn floor(scene: &str) -> f64 {
     match scene {
         "demo" => 0.97,
-        "munich" => 0.95,
-        "etoile" => 0.86,
+        "munich" => 0.94,
+        "etoile" => 0.84,
         "oa_shouse" => 0.72,
         "oa_dm1" => 0.73,
         "godot_room" => 0.70,
