@@ -150,6 +150,17 @@ fn storage(
     })
 }
 
+/// Draw calls `(first_index, index_count, object_id)` for the given objects.
+fn object_draws<'a>(
+    ranges: &'a [(u32, u32)],
+    ids: &'a [u32],
+) -> impl Iterator<Item = (u32, u32, u32)> + 'a {
+    ids.iter().map(|&id| {
+        let (first, count) = ranges[id as usize];
+        (first, count, id)
+    })
+}
+
 impl GpuBackend {
     pub fn new(ctx: Arc<GpuContext>, prep: &PreparedScene) -> Self {
         GpuBackend {
@@ -352,12 +363,7 @@ impl GpuBackend {
             });
             for (g, &(a, b)) in groups.iter().enumerate() {
                 for p in a..b {
-                    let plan = &plans[p as usize];
-                    let objs = &self.draws;
-                    let draws = plan.candidates.iter().map(|&id| {
-                        let o = &objs[id as usize];
-                        (o.0, o.1, id)
-                    });
+                    let draws = object_draws(&self.draws, &plans[p as usize].candidates);
                     self.raster.record(
                         &mut encoder,
                         RasterKind::ObjectIds,
@@ -480,12 +486,7 @@ impl GpuBackend {
             });
             for (g, &(a, b)) in groups.iter().enumerate() {
                 for p in a..b {
-                    let plan = &plans[p as usize];
-                    let objs = &self.draws;
-                    let draws = plan.occluders.ids.iter().map(|&id| {
-                        let o = &objs[id as usize];
-                        (o.0, o.1, id)
-                    });
+                    let draws = object_draws(&self.draws, &plans[p as usize].occluders.ids);
                     self.raster.record(
                         &mut encoder,
                         RasterKind::OccluderDepth,

@@ -82,6 +82,47 @@ impl GpuContext {
         )
     }
 
+    /// A bind group layout from `entries` and a pipeline layout holding just it, the
+    /// shape every compute pass here uses.
+    pub(crate) fn compute_layout(
+        &self,
+        label: &str,
+        entries: &[wgpu::BindGroupLayoutEntry],
+    ) -> (wgpu::BindGroupLayout, wgpu::PipelineLayout) {
+        let bind = self
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(label),
+                entries,
+            });
+        let pipeline = self
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(label),
+                bind_group_layouts: &[Some(&bind)],
+                immediate_size: 0,
+            });
+        (bind, pipeline)
+    }
+
+    /// A compute pipeline for one entry point of `module`.
+    pub(crate) fn compute_pipeline(
+        &self,
+        layout: &wgpu::PipelineLayout,
+        module: &wgpu::ShaderModule,
+        entry: &str,
+    ) -> wgpu::ComputePipeline {
+        self.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(layout),
+                module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+    }
+
     /// Compiles a kernel with the shared definitions of `common.wgsl` prepended.
     pub fn shader(&self, label: &str, source: &str) -> wgpu::ShaderModule {
         let code = format!("{}\n{}", include_str!("shaders/common.wgsl"), source);

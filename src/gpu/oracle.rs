@@ -12,33 +12,15 @@ pub struct OraclePass {
 impl OraclePass {
     pub fn new(ctx: &GpuContext) -> Self {
         let module = ctx.shader("oracle", include_str!("shaders/oracle.wgsl"));
-        let layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("oracle"),
-                entries: &[
-                    uniform_entry(0, true, wgpu::ShaderStages::COMPUTE),
-                    texture_array_entry(1, wgpu::TextureSampleType::Uint),
-                    storage_entry(2, false),
-                ],
-            });
-        let pl = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("oracle"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-        let pipeline = ctx
-            .device
-            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("collect"),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some("collect"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
+        let (layout, pl) = ctx.compute_layout(
+            "oracle",
+            &[
+                uniform_entry(0, true, wgpu::ShaderStages::COMPUTE),
+                texture_array_entry(1, wgpu::TextureSampleType::Uint),
+                storage_entry(2, false),
+            ],
+        );
+        let pipeline = ctx.compute_pipeline(&pl, &module, "collect");
         OraclePass { layout, pipeline }
     }
 

@@ -54,35 +54,16 @@ pub struct PyramidPass {
 impl PyramidPass {
     pub fn new(ctx: &GpuContext) -> Self {
         let module = ctx.shader("pyramid", include_str!("shaders/pyramid.wgsl"));
-        let layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("pyramid"),
-                entries: &[
-                    uniform_entry(0, true, wgpu::ShaderStages::COMPUTE),
-                    storage_entry(1, false),
-                    storage_entry(2, false),
-                    texture_array_entry(3, wgpu::TextureSampleType::Float { filterable: false }),
-                ],
-            });
-        let pl = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("pyramid"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-        let pipeline = |entry| {
-            ctx.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(entry),
-                    layout: Some(&pl),
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
-        };
+        let (layout, pl) = ctx.compute_layout(
+            "pyramid",
+            &[
+                uniform_entry(0, true, wgpu::ShaderStages::COMPUTE),
+                storage_entry(1, false),
+                storage_entry(2, false),
+                texture_array_entry(3, wgpu::TextureSampleType::Float { filterable: false }),
+            ],
+        );
+        let pipeline = |entry| ctx.compute_pipeline(&pl, &module, entry);
         PyramidPass {
             level0: pipeline("level0"),
             reduce: pipeline("reduce"),

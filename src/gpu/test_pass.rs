@@ -90,29 +90,8 @@ impl TestPass {
         .chain((2..=7).map(|b| storage_entry(b, true)))
         .chain([storage_entry(8, false)])
         .collect();
-        let layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("test"),
-                entries: &entries,
-            });
-        let pl = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("test"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-        let pipeline = ctx
-            .device
-            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("test"),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some("main"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
+        let (layout, pl) = ctx.compute_layout("test", &entries);
+        let pipeline = ctx.compute_pipeline(&pl, &module, "main");
         TestPass { layout, pipeline }
     }
 
