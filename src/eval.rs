@@ -145,7 +145,7 @@ pub fn evaluate(
             ..Default::default()
         },
     };
-    let (in_frustum, _) = run(engine, &frustum_spec)?;
+    let (in_frustum, frustum_ms) = run(engine, &frustum_spec)?;
 
     let clusters: Vec<i32> = cams
         .iter()
@@ -158,10 +158,11 @@ pub fn evaluate(
         all.push(exact.clone());
     }
     for spec in &all {
-        let (visible, ms) = if spec.options.method == Method::Exact {
-            (oracle.clone(), oracle_ms.clone())
-        } else {
-            run(engine, spec)?
+        // The oracle and frustum runs above are the reference sets; reuse them.
+        let (visible, ms) = match spec.options.method {
+            Method::Exact => (oracle.clone(), oracle_ms.clone()),
+            Method::Frustum => (in_frustum.clone(), frustum_ms.clone()),
+            _ => run(engine, spec)?,
         };
         let scene = &engine.prepared.scene;
         let tri = |ids: &[u32]| -> u64 {
