@@ -136,17 +136,12 @@ pub struct GpuBackend {
     draws: Vec<(u32, u32)>,
 }
 
-fn storage(
-    device: &wgpu::Device,
-    label: &str,
-    bytes: &[u8],
-    extra: wgpu::BufferUsages,
-) -> wgpu::Buffer {
+fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
     let fallback = [0u8; 16];
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some(label),
         contents: if bytes.is_empty() { &fallback } else { bytes },
-        usage: wgpu::BufferUsages::STORAGE | extra,
+        usage: wgpu::BufferUsages::STORAGE,
     })
 }
 
@@ -231,14 +226,22 @@ impl GpuBackend {
         Ok(data)
     }
 
-    /// Runs the occluder raster and pyramid of one group of plans and returns the
-    /// opacity and depth pyramids (slot-strided). For GPU-vs-CPU tests.
+    /// Runs the occluder raster and pyramid of one group of plans (at most one group
+    /// of slots) and returns the opacity and depth pyramids (slot-strided). For
+    /// GPU-vs-CPU tests.
     pub fn pyramids(
         &mut self,
         plans: &[PosePlan],
         s: &CullSettings,
     ) -> Result<(Vec<f32>, Vec<f32>), GpuError> {
-        self.record_and_read(plans, s, true)?;
+        let slots = self.targets(plans[0].cam.width, plans[0].cam.height).slots;
+        if plans.len() > slots as usize {
+            return Err(GpuError::Readback(format!(
+                "{} poses do not fit the {slots} pyramid slots",
+                plans.len()
+            )));
+        }
+        self.record_and_read(plans, s)?;
         let t = self.targets.as_ref().expect("targets exist after a batch");
         let size = t.layout.total as u64 * plans.len() as u64 * 4;
         let enc = self.ctx.device.create_command_encoder(&Default::default());
@@ -255,18 +258,13 @@ impl GpuBackend {
         &mut self,
         plans: &[PosePlan],
         s: &CullSettings,
-        single_group: bool,
     ) -> Result<Vec<Vec<u32>>, GpuError> {
         let (w, h) = (plans[0].cam.width, plans[0].cam.height);
         self.targets(w, h);
         let t = self.targets.as_ref().expect("targets exist");
         let device = &self.ctx.device;
         let p_count = plans.len() as u32;
-        let slots = if single_group {
-            p_count.min(t.slots)
-        } else {
-            t.slots
-        };
+        let slots = t.slots;
         let words = words_per_pose(self.draws.len()) as u32;
         let exact = s.options.method == Method::Exact;
 
@@ -430,18 +428,8 @@ impl GpuBackend {
                 .iter()
                 .flat_map(|p| p.deb.depth.iter().copied())
                 .collect();
-            let cand_buf = storage(
-                device,
-                "candidates",
-                bytemuck::cast_slice(&candidates),
-                wgpu::BufferUsages::empty(),
-            );
-            let deb_buf = storage(
-                device,
-                "deb tiles",
-                bytemuck::cast_slice(&deb_tiles),
-                wgpu::BufferUsages::empty(),
-            );
+            let cand_buf = storage(device, "candidates", bytemuck::cast_slice(&candidates));
+            let deb_buf = storage(device, "deb tiles", bytemuck::cast_slice(&deb_tiles));
             let test_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("test"),
                 layout: &self.test.layout,
@@ -526,6 +514,6 @@ impl Culler for GpuBackend {
         if plans.is_empty() {
             return Ok(Vec::new());
         }
-        Ok(self.record_and_read(plans, s, false)?)
+        Ok(self.record_and_read(plans, s)?)
     }
 }
