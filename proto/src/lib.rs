@@ -9,8 +9,15 @@
 //! - [`Pose`]: a camera pose as clients send it.
 //! - [`CullOptions`], [`Method`], [`DebVariant`]: how to cull.
 //! - [`CullStats`], [`CullResponse`]: what a cull answers.
+//! - [`rest`]: the other JSON bodies of the REST API (scenes, objects, batches, errors).
+//! - [`frame`]: binary WebSocket frames, encoder and decoder.
 
 use serde::{Deserialize, Serialize};
+
+pub mod frame;
+pub mod rest;
+
+pub use rest::*;
 
 /// Version of the wire protocol; bumped on every incompatible change.
 pub const PROTOCOL_VERSION: u32 = 1;

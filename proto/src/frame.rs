@@ -1,0 +1,1 @@
+//! Binary WebSocket frames (placeholder; the codec lands with its golden vectors).
