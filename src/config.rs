@@ -19,6 +19,12 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Serve scenes over HTTP and WebSocket (the default when no subcommand is given).
+    Serve(ServeArgs),
+    /// Exit 0 if the server's /healthz answers 200 within 2 s (for Docker HEALTHCHECK).
+    Healthcheck(HealthcheckArgs),
+    /// Drive a running server with N WebSocket or REST clients on loopback and report throughput and latency.
+    Loadgen(LoadgenArgs),
     /// Cull one pose and print the visible IDs and stats as JSON.
     Cull(CullArgs),
     /// Run every method and the exact oracle on the same poses and report quality and speed.
@@ -105,4 +111,107 @@ pub fn parse_viewport(s: &str) -> Result<[u32; 2], String> {
             .map_err(|e| format!("viewport `{s}`: {e}"))
     };
     Ok([p(w)?, p(h)?])
+}
+
+/// `homcull serve`: every limit is a flag and a `HOMCULL_*` variable.
+#[derive(Debug, Clone, Args)]
+pub struct ServeArgs {
+    /// Address to listen on.
+    #[arg(long, env = "HOMCULL_ADDR", default_value = "127.0.0.1:8080")]
+    pub addr: std::net::SocketAddr,
+    /// Where uploaded scenes and their occluder caches live.
+    #[arg(long, env = "HOMCULL_DATA_DIR", default_value = "./data")]
+    pub data_dir: PathBuf,
+    /// When set, uploads and deletes need `Authorization: Bearer TOKEN`.
+    #[arg(long, env = "HOMCULL_API_TOKEN", hide_env_values = true)]
+    pub api_token: Option<String>,
+    /// Most poses in one `cull/batch` request.
+    #[arg(long, env = "HOMCULL_MAX_BATCH", default_value_t = 1024)]
+    pub max_batch: usize,
+    /// Largest GLB upload, bytes.
+    #[arg(long, env = "HOMCULL_MAX_UPLOAD_BYTES", default_value_t = 256 << 20)]
+    pub max_upload_bytes: usize,
+    /// Largest JSON request body, bytes.
+    #[arg(long, env = "HOMCULL_MAX_JSON_BYTES", default_value_t = 8 << 20)]
+    pub max_json_bytes: usize,
+    /// Most concurrent WebSocket clients; more are refused with 503.
+    #[arg(long, env = "HOMCULL_MAX_WS_CLIENTS", default_value_t = 1000)]
+    pub max_ws_clients: usize,
+    /// Most frames per second sent to one WebSocket client.
+    #[arg(long, env = "HOMCULL_WS_MAX_FPS", default_value_t = 120.0)]
+    pub ws_max_fps: f64,
+    /// A full frame at least every N frames (deltas in between).
+    #[arg(long, env = "HOMCULL_FULL_EVERY", default_value_t = 120)]
+    pub full_every: u32,
+    /// Most poses the GPU worker runs in one submission.
+    #[arg(long, env = "HOMCULL_GPU_BATCH", default_value_t = 64)]
+    pub gpu_batch: usize,
+    /// Jobs waiting for the GPU worker before requests are refused with 503.
+    #[arg(long, env = "HOMCULL_QUEUE", default_value_t = 4096)]
+    pub queue: usize,
+    /// Run every pose in its own submission (for measuring what batching buys).
+    #[arg(long, env = "HOMCULL_NO_BATCHING")]
+    pub no_batching: bool,
+    /// Seconds before a request is answered 408.
+    #[arg(long, env = "HOMCULL_REQUEST_TIMEOUT_S", default_value_t = 60)]
+    pub request_timeout_s: u64,
+    /// Seconds a WebSocket send may block before the client is dropped.
+    #[arg(long, env = "HOMCULL_WS_SEND_TIMEOUT_S", default_value_t = 10)]
+    pub ws_send_timeout_s: u64,
+    /// Seconds to finish in-flight work after SIGTERM/SIGINT.
+    #[arg(long, env = "HOMCULL_SHUTDOWN_GRACE_S", default_value_t = 10)]
+    pub shutdown_grace_s: u64,
+    /// Seconds between rescans of the data dir for scenes other replicas wrote (0 = never).
+    #[arg(long, env = "HOMCULL_RESCAN_S", default_value_t = 2)]
+    pub rescan_s: u64,
+    /// Occluder triangles rendered per pose.
+    #[arg(long, env = "HOMCULL_BUDGET", default_value_t = crate::occluders::OccluderParams::default().budget_triangles)]
+    pub budget: u32,
+    /// Do not build the demo city (id `demo`).
+    #[arg(long, env = "HOMCULL_NO_DEMO")]
+    pub no_demo: bool,
+}
+
+impl Default for ServeArgs {
+    fn default() -> Self {
+        Cli::parse_from(["homcull", "serve"])
+            .command
+            .and_then(|c| match c {
+                Command::Serve(a) => Some(a),
+                _ => None,
+            })
+            .expect("serve parses with no arguments")
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct HealthcheckArgs {
+    /// URL of /healthz; default: port of HOMCULL_ADDR on 127.0.0.1.
+    #[arg(long, env = "HOMCULL_HEALTHCHECK_URL")]
+    pub url: Option<String>,
+}
+
+#[derive(Debug, Args)]
+pub struct LoadgenArgs {
+    /// Base URL of the server (loopback only).
+    #[arg(long, default_value = "http://127.0.0.1:8080")]
+    pub url: String,
+    /// Scene id.
+    #[arg(long, default_value = "demo")]
+    pub scene: String,
+    /// Concurrent clients.
+    #[arg(long, default_value_t = 32)]
+    pub clients: usize,
+    /// Seconds to run.
+    #[arg(long, default_value_t = 5.0)]
+    pub seconds: f64,
+    /// `ws` (one pose in flight per client) or `batch` (REST batches of --batch poses).
+    #[arg(long, default_value = "ws")]
+    pub mode: String,
+    /// Poses per REST batch in `batch` mode.
+    #[arg(long, default_value_t = 64)]
+    pub batch: usize,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
 }

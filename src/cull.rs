@@ -43,9 +43,14 @@ pub struct PreparedScene {
 
 impl PreparedScene {
     pub fn new(scene: Scene, occluder_params: OccluderParams) -> Self {
+        let occluders = OccluderDb::build(&scene, occluder_params);
+        Self::with_occluders(scene, occluders)
+    }
+
+    /// Prepares a scene whose occluder database was built before (e.g. read from a cache).
+    pub fn with_occluders(scene: Scene, occluders: OccluderDb) -> Self {
         let boxes: Vec<_> = scene.objects.iter().map(|o| o.aabb).collect();
         let bvh = BoxBvh::new(&boxes);
-        let occluders = OccluderDb::build(&scene, occluder_params);
         PreparedScene {
             scene,
             bvh,

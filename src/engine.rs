@@ -27,7 +27,11 @@ impl Engine {
         occluder_params: OccluderParams,
         gpu: Option<Arc<GpuContext>>,
     ) -> Self {
-        let prepared = PreparedScene::new(scene, occluder_params);
+        Self::from_prepared(PreparedScene::new(scene, occluder_params), gpu)
+    }
+
+    /// An engine over an already prepared scene (uploads its buffers to the GPU).
+    pub fn from_prepared(prepared: PreparedScene, gpu: Option<Arc<GpuContext>>) -> Self {
         let (backend, cpu_fallback): (Box<dyn Culler + Send>, bool) = match gpu {
             Some(ctx) => (Box::new(GpuBackend::new(ctx, &prepared)), false),
             None => (Box::new(CpuBackend), true),

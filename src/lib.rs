@@ -19,6 +19,8 @@
 //! - [`eval`]: runs methods against the oracle and aggregates quality and timing.
 //! - [`sampler`]: random poses where a person would stand.
 //! - [`pvs`]: the OpenArena maps' own potentially-visible sets, an independent check.
+//! - [`server`]: the HTTP/WebSocket server (axum), its GPU worker and data dir.
+//! - [`loadgen`]: a bounded loopback load generator for the server.
 //! - [`config`]: the command line.
 
 pub mod bvh;
@@ -30,7 +32,9 @@ pub mod eval;
 pub mod geom;
 pub mod gpu;
 pub mod hom;
+pub mod loadgen;
 pub mod occluders;
 pub mod pvs;
 pub mod sampler;
 pub mod scene;
+pub mod server;

@@ -5,7 +5,7 @@ use std::sync::Arc;
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use homcull::camera::Camera;
-use homcull::config::{Cli, Command, CullArgs, EvalArgs, SceneArg};
+use homcull::config::{Cli, Command, CullArgs, EvalArgs, HealthcheckArgs, SceneArg, ServeArgs};
 use homcull::engine::Engine;
 use homcull::eval::{MethodSpec, evaluate, table};
 use homcull::occluders::OccluderParams;
@@ -24,16 +24,46 @@ fn main() -> Result<()> {
         .init();
     let cli = Cli::parse();
     match cli.command {
+        Some(Command::Serve(a)) => serve(a),
+        Some(Command::Healthcheck(a)) => healthcheck(a),
+        Some(Command::Loadgen(a)) => homcull::loadgen::main(a),
         Some(Command::Cull(a)) => cull(a),
         Some(Command::Eval(a)) => eval(a),
-        None => {
-            eprintln!(
-                "homcull: no subcommand given; evaluating the demo city (see `homcull --help`)."
-            );
-            match Cli::parse_from(["homcull", "eval", "--demo", "--random", "64"]).command {
-                Some(Command::Eval(a)) => eval(a),
-                _ => unreachable!("the default command is eval"),
-            }
+        None => serve(ServeArgs::default()),
+    }
+}
+
+fn serve(a: ServeArgs) -> Result<()> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    rt.block_on(async move {
+        let gpu = homcull::gpu::open_gpu()?.map(Arc::new);
+        let listener = tokio::net::TcpListener::bind(a.addr)
+            .await
+            .with_context(|| format!("listening on {}", a.addr))?;
+        let addr = listener.local_addr()?;
+        let data_dir = a.data_dir.display().to_string();
+        let (state, shutdown) = homcull::server::start(a, gpu)
+            .with_context(|| format!("opening the data dir {data_dir}"))?;
+        eprintln!(
+            "homcull listening on http://{addr}/ (viewer at /, API docs at /docs) on {}; data in {data_dir}",
+            state.adapter
+        );
+        homcull::server::run(listener, state, shutdown, homcull::server::shutdown_signal()).await?;
+        eprintln!("homcull stopped");
+        Ok(())
+    })
+}
+
+fn healthcheck(a: HealthcheckArgs) -> Result<()> {
+    let url = a.url.unwrap_or_else(homcull::server::healthcheck::default_url);
+    match homcull::server::healthcheck::check(&url, std::time::Duration::from_secs(2)) {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            eprintln!("unhealthy: {e}");
+            std::process::exit(1);
         }
     }
 }

@@ -63,12 +63,18 @@ impl OccluderDb {
             })
             .map(|o| o.id)
             .collect();
+        tracing::debug!(scene = %scene.name, occluders = ids.len(), "occluder database built");
+        Self::from_ids(scene, params, ids)
+    }
+
+    /// Rebuilds the database from a cached occluder list. IDs out of range are dropped.
+    pub fn from_ids(scene: &Scene, params: OccluderParams, mut ids: Vec<u32>) -> Self {
+        ids.retain(|&i| (i as usize) < scene.objects.len());
         let boxes: Vec<_> = ids
             .iter()
             .map(|&i| scene.objects[i as usize].aabb)
             .collect();
         let bvh = BoxBvh::new(&boxes);
-        tracing::debug!(scene = %scene.name, occluders = ids.len(), "occluder database built");
         OccluderDb { params, ids, bvh }
     }
 

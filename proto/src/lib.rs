@@ -27,6 +27,7 @@ pub const PROTOCOL_VERSION: u32 = 1;
 /// Orientation is either `rotation` (a unit quaternion `[x, y, z, w]`; the camera looks
 /// along its local −Z with +Y up, as a glTF camera) or `look_at` (a world point) with an
 /// optional `up` (default +Y). Giving both is an error; giving neither looks along −Z.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Pose {
@@ -85,6 +86,7 @@ impl Pose {
 }
 
 /// Culling method.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
@@ -125,6 +127,7 @@ impl std::str::FromStr for Method {
 }
 
 /// Depth estimation buffer variant (DESIGN.md §4, step 5).
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum DebVariant {
@@ -162,6 +165,7 @@ impl std::str::FromStr for DebVariant {
 }
 
 /// How to cull: the options a client may set per request.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CullOptions {
@@ -184,6 +188,7 @@ impl Default for CullOptions {
 }
 
 /// What one cull did, for clients and dashboards.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct CullStats {
     /// Objects in the scene.
@@ -205,6 +210,7 @@ pub struct CullStats {
 }
 
 /// Answer to one pose: visible object IDs in ascending order and statistics.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct CullResponse {
     /// IDs of the objects that may be visible, ascending.

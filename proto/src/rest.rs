@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 use crate::{CullOptions, CullResponse, Pose};
 
 /// A resident scene, as listed by `GET /v1/scenes` and returned by uploads.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SceneInfo {
     /// Stable identifier used in URLs (`demo` for the built-in city).
@@ -27,12 +28,14 @@ pub struct SceneInfo {
 }
 
 /// `GET /v1/scenes`.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SceneList {
     pub scenes: Vec<SceneInfo>,
 }
 
 /// One row of a scene's object table.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ObjectInfo {
     pub id: u32,
@@ -45,12 +48,14 @@ pub struct ObjectInfo {
 }
 
 /// `GET /v1/scenes/{id}/objects`.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ObjectList {
     pub objects: Vec<ObjectInfo>,
 }
 
 /// `POST /v1/scenes/{id}/cull`: one pose and how to cull it.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CullRequest {
@@ -60,6 +65,7 @@ pub struct CullRequest {
 }
 
 /// `POST /v1/scenes/{id}/cull/batch`.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BatchRequest {
@@ -69,17 +75,20 @@ pub struct BatchRequest {
 }
 
 /// Answer to a batch, in pose order.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BatchResponse {
     pub results: Vec<CullResponse>,
 }
 
 /// The one error shape of the API: `{"error": {"code": "...", "message": "..."}}`.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ErrorBody {
     pub error: ErrorDetail,
 }
 
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ErrorDetail {
     /// Machine-readable code, e.g. `invalid_pose`, `unknown_scene`, `batch_too_large`.
@@ -100,6 +109,7 @@ impl ErrorBody {
 }
 
 /// A pose sent over WebSocket as JSON text (the binary pose frame carries the same).
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PoseMessage {

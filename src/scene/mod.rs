@@ -8,10 +8,12 @@
 //! stable for a given file.
 
 mod demo;
+mod glb_write;
 mod gltf_load;
 mod subbounds;
 
 pub use demo::demo_city;
+pub use glb_write::write_glb;
 pub use gltf_load::{LoadError, load_glb_bytes, load_path};
 pub use subbounds::{SubBoundsParams, split_into_groups};
 

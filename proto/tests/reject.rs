@@ -1,0 +1,609 @@
+//! Every `FrameError` variant, produced by a hand-crafted input.
+
+use std::collections::BTreeSet;
+
+use homcull_proto::PROTOCOL_VERSION;
+use homcull_proto::frame::{
+    ErrorCode, Frame, FrameError, FrameKind, FrameStats, HEADER_BYTES, MAGIC, MAX_FRAME_BYTES,
+    VisibleDelta, VisibleFull, apply_delta,
+};
+
+/// Name of each variant; the exhaustive match makes a new variant fail to compile here
+/// until it gets a rejection test.
+fn variant(e: &FrameError) -> &'static str {
+    match e {
+        FrameError::TooShort { .. } => "TooShort",
+        FrameError::TooLong { .. } => "TooLong",
+        FrameError::NotWordAligned { .. } => "NotWordAligned",
+        FrameError::BadMagic { .. } => "BadMagic",
+        FrameError::UnsupportedVersion { .. } => "UnsupportedVersion",
+        FrameError::UnknownKind { .. } => "UnknownKind",
+        FrameError::NonZeroAck { .. } => "NonZeroAck",
+        FrameError::PayloadLengthMismatch { .. } => "PayloadLengthMismatch",
+        FrameError::PayloadSize { .. } => "PayloadSize",
+        FrameError::NotAscending { .. } => "NotAscending",
+        FrameError::IdInBothLists { .. } => "IdInBothLists",
+        FrameError::BadFlags { .. } => "BadFlags",
+        FrameError::InvalidUtf8 { .. } => "InvalidUtf8",
+        FrameError::NonZeroPadding { .. } => "NonZeroPadding",
+        FrameError::UnknownErrorCode { .. } => "UnknownErrorCode",
+        FrameError::RemovedAbsent { .. } => "RemovedAbsent",
+        FrameError::AddedPresent { .. } => "AddedPresent",
+    }
+}
+
+const ALL_VARIANTS: [&str; 17] = [
+    "TooShort",
+    "TooLong",
+    "NotWordAligned",
+    "BadMagic",
+    "UnsupportedVersion",
+    "UnknownKind",
+    "NonZeroAck",
+    "PayloadLengthMismatch",
+    "PayloadSize",
+    "NotAscending",
+    "IdInBothLists",
+    "BadFlags",
+    "InvalidUtf8",
+    "NonZeroPadding",
+    "UnknownErrorCode",
+    "RemovedAbsent",
+    "AddedPresent",
+];
+
+fn bytes(words: &[u32]) -> Vec<u8> {
+    words.iter().flat_map(|w| w.to_le_bytes()).collect()
+}
+
+/// A frame with a correct header around `payload`.
+fn frame(kind: u32, seq: u32, ack: u32, payload: &[u32]) -> Vec<u8> {
+    let mut w = vec![
+        MAGIC,
+        PROTOCOL_VERSION,
+        kind,
+        seq,
+        ack,
+        payload.len() as u32,
+    ];
+    w.extend_from_slice(payload);
+    bytes(&w)
+}
+
+fn stats() -> [u32; 8] {
+    [10, 9, 1, 2, 3, 0, 100, 200]
+}
+
+fn full(ids: &[u32]) -> Vec<u8> {
+    let mut p = stats().to_vec();
+    p.push(ids.len() as u32);
+    p.extend_from_slice(ids);
+    frame(3, 1, 1, &p)
+}
+
+fn delta(added: &[u32], removed: &[u32]) -> Vec<u8> {
+    let mut p = stats().to_vec();
+    p.push(added.len() as u32);
+    p.push(removed.len() as u32);
+    p.extend_from_slice(added);
+    p.extend_from_slice(removed);
+    frame(4, 1, 1, &p)
+}
+
+/// `[a][byte_len]` and the bytes padded with `pad` bytes.
+fn text_payload(first: u32, text: &[u8], pad: u8) -> Vec<u32> {
+    let mut b = text.to_vec();
+    while b.len() % 4 != 0 {
+        b.push(pad);
+    }
+    let mut p = vec![first, text.len() as u32];
+    p.extend(
+        b.chunks(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])),
+    );
+    p
+}
+
+fn pose(flags: u32) -> Vec<u8> {
+    let mut p = vec![flags];
+    p.extend([0.0f32, 1.0, 2.0, 0.0, 0.0, 0.0, 1.0, 60.0].map(f32::to_bits));
+    p.extend([960, 540]);
+    p.extend([0.1f32, 100.0].map(f32::to_bits));
+    frame(2, 7, 0, &p)
+}
+
+/// Every rejected input with the error it must produce.
+fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
+    use FrameError as E;
+    let mut long = vec![0u8; MAX_FRAME_BYTES + 4];
+    long[..4].copy_from_slice(&MAGIC.to_le_bytes());
+    let mut unaligned = full(&[1, 2]);
+    unaligned.push(0);
+    let mut cases = vec![
+        ("empty", vec![], E::TooShort { len: 0 }),
+        (
+            "header minus a word",
+            frame(3, 0, 0, &[])[..20].to_vec(),
+            E::TooShort { len: 20 },
+        ),
+        (
+            "over the limit, checked first",
+            long,
+            E::TooLong {
+                len: MAX_FRAME_BYTES + 4,
+            },
+        ),
+        (
+            "over the limit by a byte",
+            vec![0xFF; MAX_FRAME_BYTES + 1],
+            E::TooLong {
+                len: MAX_FRAME_BYTES + 1,
+            },
+        ),
+        ("a stray byte", unaligned, E::NotWordAligned { len: 69 }),
+        (
+            "big-endian magic",
+            bytes(&[0x484D_434C, 1, 3, 0, 0, 0]),
+            E::BadMagic { found: 0x484D_434C },
+        ),
+        ("zero magic", vec![0; 24], E::BadMagic { found: 0 }),
+        (
+            "version 2",
+            bytes(&[MAGIC, 2, 3, 0, 0, 0]),
+            E::UnsupportedVersion {
+                found: 2,
+                supported: 1,
+            },
+        ),
+        (
+            "version 0",
+            bytes(&[MAGIC, 0, 3, 0, 0, 0]),
+            E::UnsupportedVersion {
+                found: 0,
+                supported: 1,
+            },
+        ),
+        ("kind 0", frame(0, 0, 0, &[]), E::UnknownKind { kind: 0 }),
+        ("kind 6", frame(6, 0, 0, &[]), E::UnknownKind { kind: 6 }),
+        (
+            "hello with an ack",
+            frame(1, 1, 9, &text_payload(5, b"{}", 0)),
+            E::NonZeroAck {
+                kind: FrameKind::Hello,
+                ack: 9,
+            },
+        ),
+        (
+            "pose with an ack",
+            {
+                let mut p = pose(0);
+                p[16..20].copy_from_slice(&3u32.to_le_bytes());
+                p
+            },
+            E::NonZeroAck {
+                kind: FrameKind::Pose,
+                ack: 3,
+            },
+        ),
+        (
+            "declared one word more than present",
+            bytes(&[MAGIC, 1, 3, 0, 0, 10, 0, 0, 0, 0, 0, 0, 0, 0, 0]),
+            E::PayloadLengthMismatch {
+                declared: 10,
+                actual: 9,
+            },
+        ),
+        (
+            "declared u32::MAX words",
+            bytes(&[MAGIC, 1, 3, 0, 0, u32::MAX]),
+            E::PayloadLengthMismatch {
+                declared: u32::MAX,
+                actual: 0,
+            },
+        ),
+        (
+            "pose one word short",
+            frame(2, 0, 0, &[0; 12]),
+            E::PayloadSize {
+                kind: FrameKind::Pose,
+                expected: 13,
+                actual: 12,
+            },
+        ),
+        (
+            "pose one word long",
+            frame(2, 0, 0, &[0; 14]),
+            E::PayloadSize {
+                kind: FrameKind::Pose,
+                expected: 13,
+                actual: 14,
+            },
+        ),
+        (
+            "full without its count",
+            frame(3, 0, 0, &stats()),
+            E::PayloadSize {
+                kind: FrameKind::Full,
+                expected: 9,
+                actual: 8,
+            },
+        ),
+        (
+            "full count larger than its ids",
+            {
+                let mut p = stats().to_vec();
+                p.extend([5, 1, 2, 3]);
+                frame(3, 0, 0, &p)
+            },
+            E::PayloadSize {
+                kind: FrameKind::Full,
+                expected: 14,
+                actual: 12,
+            },
+        ),
+        (
+            "full count u32::MAX (must not allocate it)",
+            {
+                let mut p = stats().to_vec();
+                p.extend([u32::MAX, 1]);
+                frame(3, 0, 0, &p)
+            },
+            E::PayloadSize {
+                kind: FrameKind::Full,
+                expected: 9 + u64::from(u32::MAX),
+                actual: 10,
+            },
+        ),
+        (
+            "delta counts whose sum overflows u32",
+            {
+                let mut p = stats().to_vec();
+                p.extend([u32::MAX, 2, 1]);
+                frame(4, 0, 0, &p)
+            },
+            E::PayloadSize {
+                kind: FrameKind::Delta,
+                expected: 10 + u64::from(u32::MAX) + 2,
+                actual: 11,
+            },
+        ),
+        (
+            "delta without its counts",
+            frame(4, 0, 0, &[0; 9]),
+            E::PayloadSize {
+                kind: FrameKind::Delta,
+                expected: 10,
+                actual: 9,
+            },
+        ),
+        (
+            "hello JSON longer than the payload",
+            frame(1, 0, 0, &[3, u32::MAX, 0x2020_7B7B]),
+            E::PayloadSize {
+                kind: FrameKind::Hello,
+                expected: 2 + u64::from(u32::MAX).div_ceil(4),
+                actual: 3,
+            },
+        ),
+        (
+            "hello with a trailing word",
+            {
+                let mut p = text_payload(3, b"{}", 0);
+                p.push(0);
+                frame(1, 0, 0, &p)
+            },
+            E::PayloadSize {
+                kind: FrameKind::Hello,
+                expected: 3,
+                actual: 4,
+            },
+        ),
+        (
+            "hello without its length",
+            frame(1, 0, 0, &[3]),
+            E::PayloadSize {
+                kind: FrameKind::Hello,
+                expected: 2,
+                actual: 1,
+            },
+        ),
+        (
+            "error message shorter than its length",
+            frame(5, 0, 0, &[1, 9, 0x6161_6161, 0x6161_6161]),
+            E::PayloadSize {
+                kind: FrameKind::Error,
+                expected: 5,
+                actual: 4,
+            },
+        ),
+        (
+            "full ids repeated",
+            full(&[1, 4, 4]),
+            E::NotAscending {
+                list: "full",
+                index: 2,
+                prev: 4,
+                id: 4,
+            },
+        ),
+        (
+            "full ids descending",
+            full(&[9, 2]),
+            E::NotAscending {
+                list: "full",
+                index: 1,
+                prev: 9,
+                id: 2,
+            },
+        ),
+        (
+            "delta added descending",
+            delta(&[1, 7, 3], &[]),
+            E::NotAscending {
+                list: "added",
+                index: 2,
+                prev: 7,
+                id: 3,
+            },
+        ),
+        (
+            "delta removed repeated",
+            delta(&[], &[0, 0]),
+            E::NotAscending {
+                list: "removed",
+                index: 1,
+                prev: 0,
+                id: 0,
+            },
+        ),
+        (
+            "delta id in both lists",
+            delta(&[1, 2, 8], &[0, 8]),
+            E::IdInBothLists { id: 8 },
+        ),
+        ("pose flag bit 1", pose(2), E::BadFlags { flags: 2 }),
+        (
+            "pose flag bit 31",
+            pose(0x8000_0001),
+            E::BadFlags { flags: 0x8000_0001 },
+        ),
+        (
+            "hello JSON not UTF-8",
+            frame(1, 0, 0, &text_payload(3, b"{\"a\":\"\xff\"}", 0)),
+            E::InvalidUtf8 {
+                field: "hello JSON",
+            },
+        ),
+        (
+            "error message with a truncated UTF-8 sequence",
+            frame(5, 0, 0, &text_payload(5, b"deg \xc2", 0)),
+            E::InvalidUtf8 {
+                field: "error message",
+            },
+        ),
+        (
+            "hello padding not zero",
+            frame(1, 0, 0, &text_payload(3, b"{}", b' ')),
+            E::NonZeroPadding {
+                field: "hello JSON",
+            },
+        ),
+        (
+            "error padding not zero",
+            frame(5, 0, 0, &text_payload(4, b"busy!", 1)),
+            E::NonZeroPadding {
+                field: "error message",
+            },
+        ),
+        (
+            "error code 0",
+            frame(5, 0, 0, &text_payload(0, b"x", 0)),
+            E::UnknownErrorCode { code: 0 },
+        ),
+        (
+            "error code 7",
+            frame(5, 0, 0, &text_payload(7, b"x", 0)),
+            E::UnknownErrorCode { code: 7 },
+        ),
+    ];
+    cases.push((
+        "delta removed repeated after a non-empty added list",
+        delta(&[5], &[6, 6]),
+        E::NotAscending {
+            list: "removed",
+            index: 1,
+            prev: 6,
+            id: 6,
+        },
+    ));
+    cases
+}
+
+#[test]
+fn every_crafted_input_is_rejected_as_expected() {
+    for (what, input, expected) in cases() {
+        let got = Frame::decode(&input);
+        assert_eq!(got, Err(expected.clone()), "{what}");
+        assert!(!expected.to_string().is_empty());
+    }
+}
+
+/// `apply_delta`'s own errors, with the inputs that produce them.
+fn apply_cases() -> Vec<(&'static str, Vec<u32>, VisibleDelta, FrameError)> {
+    let d = |added: &[u32], removed: &[u32]| VisibleDelta {
+        seq: 1,
+        ack: 1,
+        stats: FrameStats::default(),
+        added: added.to_vec(),
+        removed: removed.to_vec(),
+    };
+    vec![
+        (
+            "removed id absent",
+            vec![1, 5, 9],
+            d(&[], &[4]),
+            FrameError::RemovedAbsent { id: 4 },
+        ),
+        (
+            "removed id past the end",
+            vec![1, 5, 9],
+            d(&[2], &[9, 12]),
+            FrameError::RemovedAbsent { id: 12 },
+        ),
+        (
+            "removed from the empty set",
+            vec![],
+            d(&[], &[0]),
+            FrameError::RemovedAbsent { id: 0 },
+        ),
+        (
+            "added id present",
+            vec![1, 5, 9],
+            d(&[0, 5], &[]),
+            FrameError::AddedPresent { id: 5 },
+        ),
+        (
+            "set not ascending",
+            vec![3, 1],
+            d(&[], &[]),
+            FrameError::NotAscending {
+                list: "set",
+                index: 1,
+                prev: 3,
+                id: 1,
+            },
+        ),
+        (
+            "added not ascending",
+            vec![],
+            d(&[2, 2], &[]),
+            FrameError::NotAscending {
+                list: "added",
+                index: 1,
+                prev: 2,
+                id: 2,
+            },
+        ),
+        (
+            "id in both lists",
+            vec![4],
+            d(&[4], &[4]),
+            FrameError::IdInBothLists { id: 4 },
+        ),
+    ]
+}
+
+#[test]
+fn apply_delta_rejects_and_leaves_the_set_alone() {
+    for (what, set, delta, expected) in apply_cases() {
+        let mut s = set.clone();
+        assert_eq!(apply_delta(&mut s, &delta), Err(expected), "{what}");
+        assert_eq!(s, set, "{what}: set changed on error");
+    }
+}
+
+#[test]
+fn every_variant_has_a_rejection_test() {
+    let mut seen: BTreeSet<&str> = cases().iter().map(|(_, _, e)| variant(e)).collect();
+    seen.extend(apply_cases().iter().map(|(_, _, _, e)| variant(e)));
+    let all: BTreeSet<&str> = ALL_VARIANTS.into_iter().collect();
+    assert_eq!(seen, all);
+}
+
+#[test]
+fn error_codes_and_messages() {
+    for (what, _, e) in cases() {
+        let want = if matches!(e, FrameError::UnsupportedVersion { .. }) {
+            ErrorCode::UnsupportedVersion
+        } else {
+            ErrorCode::MalformedFrame
+        };
+        assert_eq!(e.code(), want, "{what}");
+    }
+    let magic = FrameError::BadMagic { found: 0xDEAD_BEEF }.to_string();
+    assert!(
+        magic.contains("0xdeadbeef") && magic.contains("0x4c434d48"),
+        "{magic}"
+    );
+    let version = FrameError::UnsupportedVersion {
+        found: 7,
+        supported: 1,
+    }
+    .to_string();
+    assert!(version.contains('7') && version.contains('1'), "{version}");
+    let long = FrameError::TooLong { len: 1 << 30 }.to_string();
+    assert!(long.contains(&MAX_FRAME_BYTES.to_string()), "{long}");
+    let short = FrameError::TooShort { len: 3 }.to_string();
+    assert!(short.contains(&HEADER_BYTES.to_string()), "{short}");
+    for code in ErrorCode::ALL {
+        assert_eq!(ErrorCode::from_u32(code as u32), Some(code));
+    }
+    let names: Vec<_> = ErrorCode::ALL.iter().map(|c| c.name()).collect();
+    assert_eq!(
+        names,
+        [
+            "malformed_frame",
+            "unsupported_version",
+            "invalid_pose",
+            "overloaded",
+            "internal",
+            "unknown_scene"
+        ]
+    );
+}
+
+#[test]
+fn truncations_of_valid_frames_are_rejected() {
+    let valid = [
+        full(&[1, 2, 3]),
+        delta(&[1, 4], &[2]),
+        pose(1),
+        frame(1, 1, 0, &text_payload(3, "{\"é\":1}".as_bytes(), 0)),
+        frame(5, 1, 0, &text_payload(4, b"overloaded", 0)),
+    ];
+    for f in valid {
+        assert!(Frame::decode(&f).is_ok());
+        for cut in 0..f.len() {
+            assert!(Frame::decode(&f[..cut]).is_err(), "cut at {cut}");
+        }
+    }
+}
+
+#[test]
+fn validate_catches_what_decode_rejects() {
+    let bad_full = Frame::Full(VisibleFull {
+        ids: vec![2, 1],
+        ..VisibleFull::default()
+    });
+    assert!(matches!(
+        Frame::decode(&bad_full.encode()),
+        Err(FrameError::NotAscending { .. })
+    ));
+    assert_eq!(
+        bad_full.validate(),
+        Frame::decode(&bad_full.encode()).map(|_| ())
+    );
+    let bad_delta = Frame::Delta(VisibleDelta {
+        added: vec![3],
+        removed: vec![3],
+        ..VisibleDelta::default()
+    });
+    assert_eq!(
+        bad_delta.validate(),
+        Err(FrameError::IdInBothLists { id: 3 })
+    );
+    assert_eq!(
+        bad_delta.validate(),
+        Frame::decode(&bad_delta.encode()).map(|_| ())
+    );
+    let huge = Frame::Full(VisibleFull {
+        ids: (0..(MAX_FRAME_BYTES / 4) as u32).collect(),
+        ..VisibleFull::default()
+    });
+    let len = huge.encoded_len();
+    assert_eq!(huge.validate(), Err(FrameError::TooLong { len }));
+    assert_eq!(
+        Frame::decode(&huge.encode()),
+        Err(FrameError::TooLong { len })
+    );
+}

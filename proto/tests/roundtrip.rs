@@ -1,0 +1,319 @@
+//! Property tests of the frame codec: encode → decode round trips for every kind, decode
+//! never panics on arbitrary or mutated input (and whatever it accepts re-encodes to the
+//! same bytes), and `diff`/`apply_delta` agree.
+
+use homcull_proto::frame::{
+    ErrorCode, ErrorFrame, Frame, FrameStats, HEADER_WORDS, Hello, MAGIC, PoseFrame, VisibleDelta,
+    VisibleFull, apply_delta, diff,
+};
+use homcull_proto::{PROTOCOL_VERSION, Pose};
+use proptest::collection::{btree_map, btree_set, vec};
+use proptest::prelude::*;
+
+/// Any f32 bit pattern: NaNs with payloads, infinities, subnormals, −0.
+fn any_f32() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        any::<u32>().prop_map(f32::from_bits),
+        Just(f32::NAN),
+        Just(-0.0f32),
+        Just(f32::INFINITY),
+        Just(f32::from_bits(0x7F80_0001)), // signalling NaN
+        any::<f32>(),
+    ]
+}
+
+fn stats() -> impl Strategy<Value = FrameStats> {
+    any::<[u32; 8]>().prop_map(|w| FrameStats {
+        objects: w[0],
+        candidates: w[1],
+        culled_by_frustum: w[2],
+        culled_by_occlusion: w[3],
+        occluders_used: w[4],
+        dropped_poses: w[5],
+        gpu_us: w[6],
+        total_us: w[7],
+    })
+}
+
+/// Strictly ascending IDs, from a small range (dense sets) or the whole u32 range.
+fn ids() -> impl Strategy<Value = Vec<u32>> {
+    prop_oneof![btree_set(0u32..512, 0..200), btree_set(any::<u32>(), 0..64),]
+        .prop_map(|s| s.into_iter().collect())
+}
+
+fn text() -> impl Strategy<Value = String> {
+    prop_oneof![any::<String>(), "[a-z{}\":,é°]{0,9}".prop_map(String::from)]
+}
+
+fn hello() -> impl Strategy<Value = Frame> {
+    (any::<u32>(), any::<u32>(), text()).prop_map(|(seq, object_count, info_json)| {
+        Frame::Hello(Hello {
+            seq,
+            object_count,
+            info_json,
+        })
+    })
+}
+
+fn pose() -> impl Strategy<Value = Frame> {
+    (
+        any::<u32>(),
+        any::<bool>(),
+        [any_f32(), any_f32(), any_f32()],
+        [any_f32(), any_f32(), any_f32(), any_f32()],
+        any_f32(),
+        any::<[u32; 2]>(),
+        any_f32(),
+        any_f32(),
+    )
+        .prop_map(
+            |(seq, want_full, position, rotation, fov_y_deg, viewport, near, far)| {
+                Frame::Pose(PoseFrame {
+                    seq,
+                    want_full,
+                    position,
+                    rotation,
+                    fov_y_deg,
+                    viewport,
+                    near,
+                    far,
+                })
+            },
+        )
+}
+
+fn full() -> impl Strategy<Value = Frame> {
+    (any::<u32>(), any::<u32>(), stats(), ids()).prop_map(|(seq, ack, stats, ids)| {
+        Frame::Full(VisibleFull {
+            seq,
+            ack,
+            stats,
+            ids,
+        })
+    })
+}
+
+fn delta() -> impl Strategy<Value = Frame> {
+    let lists = prop_oneof![
+        btree_map(0u32..256, any::<bool>(), 0..150),
+        btree_map(any::<u32>(), any::<bool>(), 0..64),
+    ];
+    (any::<u32>(), any::<u32>(), stats(), lists).prop_map(|(seq, ack, stats, lists)| {
+        let (added, removed): (Vec<_>, Vec<_>) = lists.into_iter().partition(|&(_, add)| add);
+        Frame::Delta(VisibleDelta {
+            seq,
+            ack,
+            stats,
+            added: added.into_iter().map(|(id, _)| id).collect(),
+            removed: removed.into_iter().map(|(id, _)| id).collect(),
+        })
+    })
+}
+
+fn error() -> impl Strategy<Value = Frame> {
+    (
+        any::<u32>(),
+        any::<u32>(),
+        proptest::sample::select(ErrorCode::ALL.to_vec()),
+        text(),
+    )
+        .prop_map(|(seq, ack, code, message)| {
+            Frame::Error(ErrorFrame {
+                seq,
+                ack,
+                code,
+                message,
+            })
+        })
+}
+
+fn any_frame() -> impl Strategy<Value = Frame> {
+    prop_oneof![hello(), pose(), full(), delta(), error()]
+}
+
+/// The pose's fields with floats as bits, so NaN compares equal to itself.
+fn pose_bits(p: &PoseFrame) -> (u32, bool, Vec<u32>, [u32; 2]) {
+    let floats = p
+        .position
+        .iter()
+        .chain(&p.rotation)
+        .chain([&p.fov_y_deg, &p.near, &p.far])
+        .map(|x| x.to_bits())
+        .collect();
+    (p.seq, p.want_full, floats, p.viewport)
+}
+
+/// Equality with floats compared bit for bit.
+fn same(a: &Frame, b: &Frame) -> bool {
+    match (a, b) {
+        (Frame::Pose(x), Frame::Pose(y)) => pose_bits(x) == pose_bits(y),
+        _ => a == b,
+    }
+}
+
+fn words(bytes: &[u8]) -> Vec<u8> {
+    bytes.to_vec()
+}
+
+/// Decodes `bytes`; whatever is accepted must re-encode to exactly `bytes`.
+fn decode_is_canonical(bytes: &[u8]) -> Result<(), TestCaseError> {
+    if let Ok(frame) = Frame::decode(bytes) {
+        prop_assert_eq!(frame.encode(), words(bytes));
+        prop_assert_eq!(frame.validate(), Ok(()));
+    }
+    Ok(())
+}
+
+/// One edit of a valid frame.
+#[derive(Debug, Clone)]
+enum Mutation {
+    /// XOR a byte (index modulo the length) with a non-zero mask.
+    Flip(usize, u8),
+    /// Overwrite a word with a small value (counts, kinds, lengths).
+    SetWord(usize, u32),
+    /// Cut the frame to a length (modulo the length).
+    Truncate(usize),
+    /// Append bytes.
+    Append(Vec<u8>),
+}
+
+fn mutation() -> impl Strategy<Value = Mutation> {
+    prop_oneof![
+        (any::<usize>(), 1u8..=255).prop_map(|(i, m)| Mutation::Flip(i, m)),
+        (any::<usize>(), prop_oneof![0u32..16, any::<u32>()])
+            .prop_map(|(i, w)| Mutation::SetWord(i, w)),
+        any::<usize>().prop_map(Mutation::Truncate),
+        vec(any::<u8>(), 1..9).prop_map(Mutation::Append),
+    ]
+}
+
+fn mutate(bytes: &mut Vec<u8>, m: &Mutation) {
+    let len = bytes.len();
+    match m {
+        Mutation::Flip(i, mask) if len > 0 => bytes[i % len] ^= mask,
+        Mutation::SetWord(i, w) if len >= 4 => {
+            let at = i % (len / 4) * 4;
+            bytes[at..at + 4].copy_from_slice(&w.to_le_bytes());
+        }
+        Mutation::Truncate(n) => bytes.truncate(n % (len + 1)),
+        Mutation::Append(extra) => bytes.extend_from_slice(extra),
+        _ => {}
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(512))]
+
+    #[test]
+    fn encode_decode_round_trips(frame in any_frame()) {
+        let bytes = frame.encode();
+        prop_assert_eq!(bytes.len(), frame.encoded_len());
+        prop_assert_eq!(bytes.len() % 4, 0);
+        prop_assert_eq!(&bytes[..4], &MAGIC.to_le_bytes());
+        prop_assert_eq!(frame.validate(), Ok(()));
+        let decoded = Frame::decode(&bytes).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        prop_assert!(same(&decoded, &frame), "{:?} != {:?}", decoded, frame);
+        prop_assert_eq!(decoded.kind(), frame.kind());
+        prop_assert_eq!(decoded.encode(), bytes);
+    }
+
+    #[test]
+    fn decode_of_arbitrary_bytes_never_panics(bytes in vec(any::<u8>(), 0..256)) {
+        decode_is_canonical(&bytes)?;
+    }
+
+    /// Arbitrary payloads behind a correct header, so the payload parsers get exercised
+    /// rather than the magic check.
+    #[test]
+    fn decode_of_arbitrary_payloads_never_panics(
+        kind in 0u32..7,
+        seq in any::<u32>(),
+        ack in prop_oneof![Just(0u32), any::<u32>()],
+        payload in vec(prop_oneof![0u32..12, any::<u32>()], 0..40),
+    ) {
+        let mut w = vec![MAGIC, PROTOCOL_VERSION, kind, seq, ack, payload.len() as u32];
+        w.extend(payload);
+        let bytes: Vec<u8> = w.iter().flat_map(|x| x.to_le_bytes()).collect();
+        decode_is_canonical(&bytes)?;
+    }
+
+    #[test]
+    fn decode_of_mutated_frames_never_panics(
+        frame in any_frame(),
+        mutations in vec(mutation(), 1..4),
+    ) {
+        let mut bytes = frame.encode();
+        for m in &mutations {
+            mutate(&mut bytes, m);
+        }
+        decode_is_canonical(&bytes)?;
+        // Any single mutation that changed the bytes must not decode to the same frame.
+        if bytes != frame.encode() {
+            if let Ok(other) = Frame::decode(&bytes) {
+                prop_assert!(!same(&other, &frame));
+            }
+        }
+    }
+
+    #[test]
+    fn apply_delta_of_diff_gives_new(
+        old in btree_set(0u32..96, 0..64),
+        new in btree_set(0u32..96, 0..64),
+    ) {
+        let old: Vec<u32> = old.into_iter().collect();
+        let new: Vec<u32> = new.into_iter().collect();
+        let (added, removed) = diff(&old, &new);
+        let delta = VisibleDelta { added, removed, ..VisibleDelta::default() };
+        // The diff is a valid delta frame...
+        let frame = Frame::Delta(delta.clone());
+        prop_assert_eq!(frame.validate(), Ok(()));
+        prop_assert_eq!(Frame::decode(&frame.encode()), Ok(frame));
+        // ...that turns old into new, and only changes what changed.
+        let mut set = old.clone();
+        apply_delta(&mut set, &delta).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        prop_assert_eq!(&set, &new);
+        for id in &delta.added {
+            prop_assert!(!old.contains(id) && new.contains(id));
+        }
+        for id in &delta.removed {
+            prop_assert!(old.contains(id) && !new.contains(id));
+        }
+        // The reverse diff undoes it.
+        let (back_added, back_removed) = diff(&new, &old);
+        prop_assert_eq!(&back_added, &delta.removed);
+        prop_assert_eq!(&back_removed, &delta.added);
+    }
+
+    #[test]
+    fn pose_conversions_round_trip(frame in pose(), want_full in any::<bool>(), seq in any::<u32>()) {
+        let Frame::Pose(p) = frame else { unreachable!() };
+        let pose: Pose = p.to_pose();
+        prop_assert!(pose.rotation.is_some() && pose.look_at.is_none() && pose.up.is_none());
+        let back = PoseFrame::from_pose(seq, want_full, &pose).expect("rotation pose converts");
+        prop_assert_eq!(
+            pose_bits(&back),
+            pose_bits(&PoseFrame { seq, want_full, ..p })
+        );
+    }
+}
+
+#[test]
+fn pose_from_look_at_is_none() {
+    let pose = Pose::looking_at([0.0, 1.0, 2.0], [0.0, 0.0, 0.0]);
+    assert_eq!(PoseFrame::from_pose(1, false, &pose), None);
+    let with_up = Pose {
+        rotation: Some([0.0, 0.0, 0.0, 1.0]),
+        look_at: None,
+        up: Some([0.0, 1.0, 0.0]),
+        ..pose.clone()
+    };
+    assert_eq!(PoseFrame::from_pose(1, false, &with_up), None);
+    let neither = Pose {
+        look_at: None,
+        ..pose
+    };
+    let p = PoseFrame::from_pose(3, true, &neither).unwrap();
+    assert_eq!(p.rotation, [0.0, 0.0, 0.0, 1.0]);
+    assert_eq!((p.seq, p.want_full), (3, true));
+    assert_eq!(HEADER_WORDS, 6);
+}

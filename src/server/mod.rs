@@ -1,0 +1,215 @@
+//! The network face of homcull: an axum app over resident scenes and one GPU worker.
+//!
+//! - [`routes`]: REST (`/healthz`, `/readyz`, `/metrics`, `/v1/scenes/...`).
+//! - [`ws`]: WebSocket streaming with binary frames, deltas and latest-pose-wins.
+//! - [`worker`]: the one GPU worker that batches every waiting pose into one submission.
+//! - [`state`]: resident scenes and shared state; [`store`]: the data directory.
+//! - [`error`]: the one JSON error shape; [`metrics`]: Prometheus.
+//! - [`healthcheck`]: the `homcull healthcheck` client for container probes.
+//!
+//! [`start`] builds the state (GPU, worker, scenes loading in the background) and
+//! [`run`] serves a listener until a shutdown future resolves, then stops accepting,
+//! lets in-flight requests finish, and closes WebSockets with a close frame.
+
+pub mod error;
+pub mod healthcheck;
+pub mod metrics;
+pub mod routes;
+pub mod state;
+pub mod store;
+pub mod worker;
+pub mod ws;
+
+use std::future::Future;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::time::Duration;
+
+use axum::Router;
+use axum::extract::DefaultBodyLimit;
+use axum::routing::{get, post};
+use tokio::net::TcpListener;
+use tokio::sync::watch;
+use tower_http::timeout::TimeoutLayer;
+use tower_http::trace::TraceLayer;
+use utoipa::OpenApi;
+use utoipa_swagger_ui::SwaggerUi;
+
+use crate::config::ServeArgs;
+use crate::gpu::GpuContext;
+use state::{AppState, Inner};
+use store::Store;
+
+/// The OpenAPI description served at `/openapi.json`.
+#[derive(OpenApi)]
+#[openapi(
+    info(title = "homcull", description = "Occlusion culling as a service: send camera poses, get the IDs of objects that may be visible."),
+    paths(
+        routes::healthz, routes::readyz, routes::metrics, routes::list_scenes, routes::upload_scene,
+        routes::get_scene, routes::list_objects, routes::get_glb, routes::delete_scene,
+        routes::cull, routes::cull_batch, ws::stream
+    ),
+    components(schemas(
+        homcull_proto::Pose, homcull_proto::CullOptions, homcull_proto::Method,
+        homcull_proto::DebVariant, homcull_proto::CullStats, homcull_proto::CullResponse,
+        homcull_proto::SceneInfo, homcull_proto::SceneList, homcull_proto::ObjectInfo,
+        homcull_proto::ObjectList, homcull_proto::CullRequest, homcull_proto::BatchRequest,
+        homcull_proto::BatchResponse, homcull_proto::ErrorBody, homcull_proto::ErrorDetail,
+        homcull_proto::PoseMessage
+    ))
+)]
+pub struct ApiDoc;
+
+/// The router: every route, with body limits, timeouts, tracing and metrics.
+pub fn app(state: AppState) -> Router {
+    let cfg = &state.config;
+    let json_limit = DefaultBodyLimit::max(cfg.max_json_bytes);
+    let api = Router::new()
+        .route("/healthz", get(routes::healthz))
+        .route("/readyz", get(routes::readyz))
+        .route("/metrics", get(routes::metrics))
+        .route(
+            "/v1/scenes",
+            get(routes::list_scenes)
+                .post(routes::upload_scene)
+                .layer(DefaultBodyLimit::max(cfg.max_upload_bytes)),
+        )
+        .route(
+            "/v1/scenes/{id}",
+            get(routes::get_scene).delete(routes::delete_scene),
+        )
+        .route("/v1/scenes/{id}/objects", get(routes::list_objects))
+        .route("/v1/scenes/{id}/glb", get(routes::get_glb))
+        .route(
+            "/v1/scenes/{id}/cull",
+            post(routes::cull).layer(json_limit),
+        )
+        .route(
+            "/v1/scenes/{id}/cull/batch",
+            post(routes::cull_batch).layer(json_limit),
+        )
+        .route("/v1/scenes/{id}/stream", get(ws::stream))
+        .layer(TimeoutLayer::with_status_code(
+            axum::http::StatusCode::REQUEST_TIMEOUT,
+            Duration::from_secs(cfg.request_timeout_s),
+        ))
+        .route_layer(axum::middleware::from_fn(metrics::track));
+    api.merge(SwaggerUi::new("/docs").url("/openapi.json", ApiDoc::openapi()))
+        .fallback(|| async {
+            error::ApiError::new(
+                axum::http::StatusCode::NOT_FOUND,
+                "not_found",
+                "no such route (see /docs)",
+            )
+        })
+        .layer(TraceLayer::new_for_http())
+        .with_state(state)
+}
+
+/// Builds the server state: opens the data dir, starts the GPU worker, and loads the
+/// demo city and stored scenes in the background (`/readyz` says when they are in).
+/// `gpu` is the adapter to use (`None`: the CPU reference).
+pub fn start(
+    config: ServeArgs,
+    gpu: Option<Arc<GpuContext>>,
+) -> std::io::Result<(AppState, watch::Sender<bool>)> {
+    let store = Store::open(&config.data_dir)?;
+    let (shutdown_tx, shutdown) = watch::channel(false);
+    let worker = worker::spawn(config.queue, config.gpu_batch, !config.no_batching);
+    let adapter = gpu
+        .as_ref()
+        .map_or("CPU reference (no GPU)".to_string(), |g| g.describe());
+    let state = AppState(Arc::new(Inner {
+        config,
+        store,
+        scenes: Default::default(),
+        worker,
+        gpu,
+        adapter,
+        ready: AtomicBool::new(false),
+        ws_clients: AtomicUsize::new(0),
+        shutdown,
+        metrics: metrics::handle(),
+        changes: Default::default(),
+        failed: Default::default(),
+    }));
+    let st = state.clone();
+    tokio::task::spawn_blocking(move || {
+        if !st.config.no_demo {
+            st.load_demo();
+        }
+        st.rescan();
+        st.ready.store(true, Ordering::SeqCst);
+        tracing::info!(scenes = st.scene_list().len(), adapter = %st.adapter, "ready");
+    });
+    if state.config.rescan_s > 0 {
+        let st = state.clone();
+        let every = Duration::from_secs(state.config.rescan_s);
+        tokio::spawn(async move {
+            let mut shutdown = st.shutdown.clone();
+            loop {
+                tokio::select! {
+                    _ = tokio::time::sleep(every) => {}
+                    _ = shutdown.changed() => break,
+                }
+                if st.ready.load(Ordering::SeqCst) {
+                    let s = st.clone();
+                    let _ = tokio::task::spawn_blocking(move || s.rescan()).await;
+                }
+            }
+        });
+    }
+    Ok((state, shutdown_tx))
+}
+
+/// Serves `listener` until `shutdown` resolves, then drains: no new connections,
+/// in-flight requests finish, WebSockets get a close frame. Gives up after the
+/// configured grace period.
+pub async fn run(
+    listener: TcpListener,
+    state: AppState,
+    shutdown_tx: watch::Sender<bool>,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
+    let grace = Duration::from_secs(state.config.shutdown_grace_s);
+    let mut stopping = state.shutdown.clone();
+    let app = app(state);
+    let serve = axum::serve(listener, app).with_graceful_shutdown(async move {
+        shutdown.await;
+        tracing::info!("shutting down: draining requests and closing WebSockets");
+        let _ = shutdown_tx.send(true);
+    });
+    let deadline = async move {
+        let _ = stopping.wait_for(|s| *s).await;
+        tokio::time::sleep(grace).await;
+    };
+    tokio::select! {
+        r = serve => r,
+        _ = deadline => {
+            tracing::warn!("grace period over; stopping with work in flight");
+            Ok(())
+        }
+    }
+}
+
+/// Resolves on SIGINT or SIGTERM.
+pub async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {},
+        _ = term => {},
+    }
+}

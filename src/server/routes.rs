@@ -1,0 +1,286 @@
+//! REST handlers. Each parses its own input (so that bad input gets our JSON error,
+//! not a framework's plain text), checks it, and leaves culling to the GPU worker.
+
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+
+use axum::Json;
+use axum::body::Bytes;
+use axum::extract::rejection::{BytesRejection, QueryRejection};
+use axum::extract::{Path, Query, State};
+use axum::http::{HeaderMap, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use homcull_proto::{
+    BatchRequest, BatchResponse, CullOptions, CullRequest, CullResponse, ObjectList, SceneInfo,
+    SceneList,
+};
+use serde::Deserialize;
+
+use super::error::ApiError;
+use super::state::{AppState, GlbSource, SceneEntry};
+use crate::camera::Camera;
+use crate::cull::PoseResult;
+use crate::scene::load_glb_bytes;
+
+/// Liveness: the process answers.
+#[utoipa::path(get, path = "/healthz", responses((status = 200, description = "alive")))]
+pub async fn healthz() -> Json<serde_json::Value> {
+    Json(serde_json::json!({"status": "ok"}))
+}
+
+/// Readiness: scenes loaded and the adapter (or CPU fallback) ready.
+#[utoipa::path(get, path = "/readyz", responses(
+    (status = 200, description = "ready; names the adapter"),
+    (status = 503, description = "starting or shutting down")))]
+pub async fn readyz(State(state): State<AppState>) -> Response {
+    let ready = state.ready.load(Ordering::SeqCst) && !*state.shutdown.borrow();
+    let body = serde_json::json!({
+        "ready": ready,
+        "adapter": state.adapter,
+        "backend": state.gpu.as_ref().map_or("cpu".to_string(), |g| format!("{:?}", g.info.backend).to_lowercase()),
+        "cpu_fallback": state.gpu.is_none(),
+        "scenes": state.scene_list().len(),
+    });
+    let status = if ready {
+        StatusCode::OK
+    } else {
+        StatusCode::SERVICE_UNAVAILABLE
+    };
+    (status, Json(body)).into_response()
+}
+
+/// Prometheus metrics in the text exposition format.
+#[utoipa::path(get, path = "/metrics", responses((status = 200, description = "Prometheus text format")))]
+pub async fn metrics(State(state): State<AppState>) -> Response {
+    (
+        [(header::CONTENT_TYPE, "text/plain; version=0.0.4")],
+        state.metrics.render(),
+    )
+        .into_response()
+}
+
+/// Lists resident scenes.
+#[utoipa::path(get, path = "/v1/scenes", responses((status = 200, body = SceneList)))]
+pub async fn list_scenes(State(state): State<AppState>) -> Json<SceneList> {
+    Json(SceneList {
+        scenes: state.scene_list(),
+    })
+}
+
+#[derive(Debug, Deserialize, utoipa::IntoParams)]
+pub struct UploadQuery {
+    /// Name of the scene (default `upload`).
+    pub name: Option<String>,
+}
+
+fn check_token(state: &AppState, headers: &HeaderMap) -> Result<(), ApiError> {
+    let Some(token) = &state.config.api_token else {
+        return Ok(());
+    };
+    let given = headers
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.strip_prefix("Bearer "));
+    // Compare without an early exit so timing does not reveal the token's prefix.
+    let ok = given.is_some_and(|g| {
+        g.len() == token.len() && g.bytes().zip(token.bytes()).fold(0, |a, (x, y)| a | (x ^ y)) == 0
+    });
+    if ok {
+        Ok(())
+    } else {
+        Err(ApiError::new(
+            StatusCode::UNAUTHORIZED,
+            "unauthorized",
+            "this server needs `Authorization: Bearer TOKEN` for uploads and deletes",
+        ))
+    }
+}
+
+fn body_error(e: BytesRejection) -> ApiError {
+    if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+        ApiError::new(e.status(), "too_large", format!("request body too large: {e}"))
+    } else {
+        ApiError::new(e.status(), "bad_body", e.body_text())
+    }
+}
+
+/// Uploads a GLB; it is stored, preprocessed and made resident.
+#[utoipa::path(post, path = "/v1/scenes", params(UploadQuery),
+    request_body(content = Vec<u8>, content_type = "model/gltf-binary"),
+    responses((status = 201, body = SceneInfo), (status = 400, body = homcull_proto::ErrorBody),
+        (status = 401, body = homcull_proto::ErrorBody), (status = 413, body = homcull_proto::ErrorBody)))]
+pub async fn upload_scene(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    query: Result<Query<UploadQuery>, QueryRejection>,
+    body: Result<Bytes, BytesRejection>,
+) -> Result<(StatusCode, Json<SceneInfo>), ApiError> {
+    check_token(&state, &headers)?;
+    let Query(q) = query.map_err(|e| ApiError::bad_request("bad_query", e.body_text()))?;
+    let body = body.map_err(body_error)?;
+    let name = q.name.unwrap_or_else(|| "upload".into());
+    if name.is_empty() || name.chars().count() > 200 || name.chars().any(char::is_control) {
+        return Err(ApiError::bad_request(
+            "bad_name",
+            "name must be 1 to 200 printable characters",
+        ));
+    }
+    if body.is_empty() {
+        return Err(ApiError::bad_request("invalid_glb", "the body is empty; send a GLB file"));
+    }
+    let st = state.clone();
+    let entry = tokio::task::spawn_blocking(move || -> Result<Arc<SceneEntry>, ApiError> {
+        let scene = load_glb_bytes(&body, &name)
+            .map_err(|e| ApiError::bad_request("invalid_glb", format!("not a usable GLB: {e}")))?;
+        if scene.objects.is_empty() {
+            return Err(ApiError::bad_request("invalid_glb", "the file has no mesh-bearing nodes"));
+        }
+        st.create(&name, &body, scene)
+            .map_err(|e| ApiError::internal(format!("storing the scene: {e}")))
+    })
+    .await
+    .map_err(|e| ApiError::internal(format!("upload task failed: {e}")))??;
+    Ok((StatusCode::CREATED, Json(entry.info.clone())))
+}
+
+/// One scene's info.
+#[utoipa::path(get, path = "/v1/scenes/{id}", params(("id" = String, Path, description = "scene id")),
+    responses((status = 200, body = SceneInfo), (status = 404, body = homcull_proto::ErrorBody)))]
+pub async fn get_scene(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<SceneInfo>, ApiError> {
+    Ok(Json(state.scene(&id)?.info.clone()))
+}
+
+/// The object table: id, name, world AABB, triangles, occluder flag.
+#[utoipa::path(get, path = "/v1/scenes/{id}/objects", params(("id" = String, Path, description = "scene id")),
+    responses((status = 200, body = ObjectList), (status = 404, body = homcull_proto::ErrorBody)))]
+pub async fn list_objects(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<ObjectList>, ApiError> {
+    Ok(Json(ObjectList {
+        objects: state.scene(&id)?.objects.clone(),
+    }))
+}
+
+/// The scene as GLB, for clients to draw (object IDs = mesh-bearing nodes in depth-first order).
+#[utoipa::path(get, path = "/v1/scenes/{id}/glb", params(("id" = String, Path, description = "scene id")),
+    responses((status = 200, content_type = "model/gltf-binary"), (status = 404, body = homcull_proto::ErrorBody)))]
+pub async fn get_glb(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Response, ApiError> {
+    let scene = state.scene(&id)?;
+    let bytes = match &scene.glb {
+        GlbSource::Memory(b) => b.as_ref().clone(),
+        GlbSource::File(p) => tokio::fs::read(p)
+            .await
+            .map_err(|_| ApiError::unknown_scene(&id))?,
+    };
+    Ok(([(header::CONTENT_TYPE, "model/gltf-binary")], bytes).into_response())
+}
+
+/// Deletes an uploaded scene (the demo stays).
+#[utoipa::path(delete, path = "/v1/scenes/{id}", params(("id" = String, Path, description = "scene id")),
+    responses((status = 204), (status = 401, body = homcull_proto::ErrorBody),
+        (status = 404, body = homcull_proto::ErrorBody), (status = 409, body = homcull_proto::ErrorBody)))]
+pub async fn delete_scene(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+) -> Result<StatusCode, ApiError> {
+    check_token(&state, &headers)?;
+    if id == "demo" {
+        return Err(ApiError::new(
+            StatusCode::CONFLICT,
+            "read_only",
+            "the demo scene is built in and cannot be deleted",
+        ));
+    }
+    state.scene(&id)?;
+    let st = state.clone();
+    tokio::task::spawn_blocking(move || {
+        let _changing = st.changes.lock().unwrap_or_else(|p| p.into_inner());
+        let res = st.store.delete(&id);
+        st.remove(&id);
+        res
+    })
+    .await
+    .map_err(|e| ApiError::internal(format!("delete task failed: {e}")))?
+    .map_err(|e| ApiError::internal(format!("deleting the scene: {e}")))?;
+    Ok(StatusCode::NO_CONTENT)
+}
+
+fn check_options(o: &CullOptions) -> Result<(), ApiError> {
+    if o.threshold > 0.0 && o.threshold <= 1.0 {
+        Ok(())
+    } else {
+        Err(ApiError::bad_request(
+            "invalid_options",
+            format!("threshold must be in (0, 1], got {}", o.threshold),
+        ))
+    }
+}
+
+fn response(r: PoseResult) -> CullResponse {
+    CullResponse {
+        visible: r.visible,
+        stats: r.stats,
+    }
+}
+
+/// Culls one pose.
+#[utoipa::path(post, path = "/v1/scenes/{id}/cull", params(("id" = String, Path, description = "scene id")),
+    request_body = CullRequest,
+    responses((status = 200, body = CullResponse), (status = 400, body = homcull_proto::ErrorBody),
+        (status = 404, body = homcull_proto::ErrorBody), (status = 503, body = homcull_proto::ErrorBody)))]
+pub async fn cull(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    body: Result<Bytes, BytesRejection>,
+) -> Result<Json<CullResponse>, ApiError> {
+    let req: CullRequest = ApiError::parse_json(&body.map_err(body_error)?)?;
+    check_options(&req.options)?;
+    let cam = Camera::new(&req.pose)?;
+    let scene = state.scene(&id)?;
+    let mut out = state.worker.cull(scene, vec![cam], req.options).await?;
+    Ok(Json(response(out.remove(0))))
+}
+
+/// Culls many poses in one GPU submission; results in pose order.
+#[utoipa::path(post, path = "/v1/scenes/{id}/cull/batch", params(("id" = String, Path, description = "scene id")),
+    request_body = BatchRequest,
+    responses((status = 200, body = BatchResponse), (status = 400, body = homcull_proto::ErrorBody),
+        (status = 404, body = homcull_proto::ErrorBody), (status = 413, body = homcull_proto::ErrorBody)))]
+pub async fn cull_batch(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    body: Result<Bytes, BytesRejection>,
+) -> Result<Json<BatchResponse>, ApiError> {
+    let req: BatchRequest = ApiError::parse_json(&body.map_err(body_error)?)?;
+    let max = state.config.max_batch;
+    if req.poses.len() > max {
+        return Err(ApiError::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "batch_too_large",
+            format!("{} poses in one batch; the limit is {max}", req.poses.len()),
+        ));
+    }
+    check_options(&req.options)?;
+    let cams = req
+        .poses
+        .iter()
+        .enumerate()
+        .map(|(i, p)| Camera::new(p).map_err(|e| ApiError::bad_request("invalid_pose", format!("pose {i}: {e}"))))
+        .collect::<Result<Vec<_>, _>>()?;
+    let scene = state.scene(&id)?;
+    if cams.is_empty() {
+        return Ok(Json(BatchResponse { results: vec![] }));
+    }
+    let out = state.worker.cull(scene, cams, req.options).await?;
+    Ok(Json(BatchResponse {
+        results: out.into_iter().map(response).collect(),
+    }))
+}

@@ -1,0 +1,193 @@
+//! The one GPU worker: every cull (REST, batch, WebSocket) goes through it.
+//!
+//! Handlers never touch the GPU (DESIGN.md §2). They send a [`CullJob`] over a bounded
+//! channel and await a oneshot reply. The worker, a plain thread because culling
+//! blocks, takes the first waiting job, drains whatever else is waiting up to
+//! `gpu_batch` poses, groups the jobs by scene and options, and runs each group as
+//! one batch: one submission, one readback. Under load many clients share one
+//! submission; with one client a pose runs alone with no added wait. A full queue is
+//! answered `overloaded` at once instead of growing without bound.
+
+use std::collections::HashMap;
+use std::panic::AssertUnwindSafe;
+use std::sync::Arc;
+use std::time::Instant;
+
+use homcull_proto::CullOptions;
+use tokio::sync::{mpsc, oneshot};
+
+use super::error::ApiError;
+use super::state::SceneEntry;
+use crate::camera::Camera;
+use crate::cull::PoseResult;
+
+/// Poses of one request, to be culled with the same options on one scene.
+pub struct CullJob {
+    pub scene: Arc<SceneEntry>,
+    pub cams: Vec<Camera>,
+    pub options: CullOptions,
+    pub reply: oneshot::Sender<Result<Vec<PoseResult>, ApiError>>,
+}
+
+/// Sends jobs to the worker.
+#[derive(Clone)]
+pub struct WorkerHandle {
+    tx: mpsc::Sender<CullJob>,
+}
+
+impl WorkerHandle {
+    /// Culls `cams` on `scene`, waiting for the worker's answer.
+    pub async fn cull(
+        &self,
+        scene: Arc<SceneEntry>,
+        cams: Vec<Camera>,
+        options: CullOptions,
+    ) -> Result<Vec<PoseResult>, ApiError> {
+        let (reply, rx) = oneshot::channel();
+        let job = CullJob {
+            scene,
+            cams,
+            options,
+            reply,
+        };
+        self.tx.try_send(job).map_err(|e| match e {
+            mpsc::error::TrySendError::Full(_) => {
+                metrics::counter!("homcull_worker_rejected_total").increment(1);
+                ApiError::overloaded("the GPU queue is full; try again shortly")
+            }
+            mpsc::error::TrySendError::Closed(_) => ApiError::internal("the GPU worker has stopped"),
+        })?;
+        rx.await
+            .map_err(|_| ApiError::internal("the GPU worker dropped the request"))?
+    }
+}
+
+/// Starts the worker thread. It stops when every [`WorkerHandle`] is dropped.
+pub fn spawn(queue: usize, gpu_batch: usize, batching: bool) -> WorkerHandle {
+    let (tx, rx) = mpsc::channel(queue.max(1));
+    std::thread::Builder::new()
+        .name("homcull-gpu".into())
+        .spawn(move || run(rx, gpu_batch.max(1), batching))
+        .expect("spawning the GPU worker thread");
+    WorkerHandle { tx }
+}
+
+fn run(mut rx: mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool) {
+    while let Some(first) = rx.blocking_recv() {
+        let mut poses = first.cams.len();
+        let mut jobs = vec![first];
+        while batching && poses < gpu_batch {
+            match rx.try_recv() {
+                Ok(job) => {
+                    poses += job.cams.len();
+                    jobs.push(job);
+                }
+                Err(_) => break,
+            }
+        }
+        metrics::gauge!("homcull_worker_queue").set(rx.len() as f64);
+        if batching {
+            for group in group_jobs(jobs) {
+                run_group(group);
+            }
+        } else {
+            for job in jobs {
+                run_one_by_one(job);
+            }
+        }
+    }
+    tracing::debug!("GPU worker stopped");
+}
+
+/// Key of jobs that can share one submission: same scene, same options.
+fn group_jobs(jobs: Vec<CullJob>) -> Vec<Vec<CullJob>> {
+    let mut groups: HashMap<(usize, u8, u8, u32), Vec<CullJob>> = HashMap::new();
+    let mut order = Vec::new();
+    for job in jobs {
+        let o = job.options;
+        let key = (
+            Arc::as_ptr(&job.scene) as usize,
+            o.method as u8,
+            o.deb as u8,
+            o.threshold.to_bits(),
+        );
+        if !groups.contains_key(&key) {
+            order.push(key);
+        }
+        groups.entry(key).or_default().push(job);
+    }
+    order.into_iter().filter_map(|k| groups.remove(&k)).collect()
+}
+
+/// Runs one batch on a scene's engine, turning panics into errors so that one bad
+/// batch never takes the worker down.
+fn cull_batch(
+    scene: &SceneEntry,
+    cams: &[Camera],
+    options: CullOptions,
+) -> Result<Vec<PoseResult>, ApiError> {
+    let start = Instant::now();
+    let out = std::panic::catch_unwind(AssertUnwindSafe(|| {
+        let mut engine = scene.engine.lock().unwrap_or_else(|p| p.into_inner());
+        let settings = engine.settings(options);
+        engine.cull(cams, &settings)
+    }));
+    let secs = start.elapsed().as_secs_f64();
+    metrics::histogram!("homcull_gpu_batch_poses").record(cams.len() as f64);
+    metrics::histogram!("homcull_gpu_batch_seconds").record(secs);
+    metrics::counter!("homcull_culls_total", "method" => options.method.name())
+        .increment(cams.len() as u64);
+    match out {
+        Ok(Ok(results)) => Ok(results),
+        Ok(Err(e)) => Err(match e {
+            crate::cull::CullError::Threshold(_) => {
+                ApiError::bad_request("invalid_options", e.to_string())
+            }
+            crate::cull::CullError::Gpu(g) => ApiError::internal(format!("GPU: {g}")),
+        }),
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            tracing::error!("a cull panicked: {what}");
+            Err(ApiError::internal("the cull failed inside the engine"))
+        }
+    }
+}
+
+fn run_group(group: Vec<CullJob>) {
+    let scene = group[0].scene.clone();
+    let options = group[0].options;
+    let cams: Vec<Camera> = group.iter().flat_map(|j| j.cams.iter().cloned()).collect();
+    match cull_batch(&scene, &cams, options) {
+        Ok(mut results) => {
+            // Hand each job its slice, in order.
+            for job in group.into_iter().rev() {
+                let tail = results.split_off(results.len() - job.cams.len());
+                let _ = job.reply.send(Ok(tail));
+            }
+        }
+        Err(e) => {
+            for job in group {
+                let _ = job.reply.send(Err(e.clone()));
+            }
+        }
+    }
+}
+
+/// Without batching: one submission per pose (what batching is measured against).
+fn run_one_by_one(job: CullJob) {
+    let mut out = Vec::with_capacity(job.cams.len());
+    for cam in &job.cams {
+        match cull_batch(&job.scene, std::slice::from_ref(cam), job.options) {
+            Ok(mut r) => out.append(&mut r),
+            Err(e) => {
+                let _ = job.reply.send(Err(e));
+                return;
+            }
+        }
+    }
+    let _ = job.reply.send(Ok(out));
+}

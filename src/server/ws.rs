@@ -1,0 +1,344 @@
+//! WebSocket streaming: `GET /v1/scenes/{id}/stream`.
+//!
+//! The server sends a hello frame, then answers poses with full or delta frames
+//! (binary, `homcull_proto::frame`). Each client has two tasks:
+//! - the reader decodes poses (binary pose frames or JSON text [`PoseMessage`]) and
+//!   puts each into a one-slot mailbox, replacing any pose still waiting there:
+//!   **latest pose wins**, superseded poses are dropped and counted, never queued;
+//! - the sender takes the mailbox's pose when the previous answer is out (and no
+//!   sooner than the frame-rate cap allows), sends it to the GPU worker, and writes a
+//!   delta against the last set it sent, or a full frame on the first answer, every
+//!   `full_every` frames, and when the client asks.
+//!
+//! A client that stops reading blocks only its own sender; after the send timeout it
+//! is dropped. Malformed frames get an error frame; a flood of them closes the socket.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+use axum::extract::ws::{CloseFrame, Message, Utf8Bytes, WebSocket, WebSocketUpgrade};
+use axum::extract::{Path, Query, State};
+use axum::response::Response;
+use futures_util::{SinkExt, StreamExt};
+use homcull_proto::frame::{
+    ErrorCode, ErrorFrame, Frame, FrameStats, Hello, VisibleDelta, VisibleFull, diff,
+};
+use homcull_proto::{CullOptions, DebVariant, Method, PROTOCOL_VERSION, PoseMessage};
+use serde::Deserialize;
+use tokio::sync::{Mutex, Notify, mpsc};
+
+use super::error::ApiError;
+use super::state::{AppState, SceneEntry, WsClientSlot};
+use crate::camera::Camera;
+use crate::cull::PoseResult;
+
+/// Largest message a client may send (a pose frame is 76 bytes).
+const MAX_CLIENT_MESSAGE: usize = 64 << 10;
+/// Consecutive malformed messages after which the socket is closed.
+const MAX_BAD_MESSAGES: u32 = 64;
+
+/// Options of a stream, from the query string.
+#[derive(Debug, Deserialize, utoipa::IntoParams)]
+pub struct StreamQuery {
+    /// hom (default), hzb, frustum or exact.
+    pub method: Option<Method>,
+    /// Opacity threshold O_0 in (0, 1]; 1 (default) is conservative.
+    pub threshold: Option<f32>,
+    /// plane, tiles or raster (default).
+    pub deb: Option<DebVariant>,
+}
+
+/// Opens a visibility stream (WebSocket upgrade). See the README for the frame layout.
+#[utoipa::path(get, path = "/v1/scenes/{id}/stream",
+    params(("id" = String, Path, description = "scene id"), StreamQuery),
+    responses((status = 101, description = "switching to WebSocket"),
+        (status = 404, body = homcull_proto::ErrorBody), (status = 503, body = homcull_proto::ErrorBody)))]
+pub async fn stream(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    query: Result<Query<StreamQuery>, axum::extract::rejection::QueryRejection>,
+    ws: WebSocketUpgrade,
+) -> Result<Response, ApiError> {
+    let Query(q) = query.map_err(|e| ApiError::bad_request("bad_query", e.body_text()))?;
+    let defaults = CullOptions::default();
+    let options = CullOptions {
+        method: q.method.unwrap_or(defaults.method),
+        threshold: q.threshold.unwrap_or(defaults.threshold),
+        deb: q.deb.unwrap_or(defaults.deb),
+    };
+    if !(options.threshold > 0.0 && options.threshold <= 1.0) {
+        return Err(ApiError::bad_request(
+            "invalid_options",
+            format!("threshold must be in (0, 1], got {}", options.threshold),
+        ));
+    }
+    let scene = state.scene(&id)?;
+    let slot = state.try_ws_slot().ok_or_else(|| {
+        ApiError::overloaded(format!(
+            "too many WebSocket clients (limit {})",
+            state.config.max_ws_clients
+        ))
+    })?;
+    Ok(ws
+        .max_message_size(MAX_CLIENT_MESSAGE)
+        .max_frame_size(MAX_CLIENT_MESSAGE)
+        .on_upgrade(move |socket| client(socket, state, scene, options, slot)))
+}
+
+/// A pose waiting to be culled.
+struct Pending {
+    seq: u32,
+    cam: Camera,
+    want_full: bool,
+}
+
+/// The one-slot mailbox between a client's reader and sender.
+#[derive(Default)]
+struct Mailbox {
+    pose: std::sync::Mutex<Option<Pending>>,
+    ready: Notify,
+    dropped: AtomicU32,
+}
+
+impl Mailbox {
+    fn put(&self, p: Pending) {
+        let mut slot = self.pose.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(old) = slot.replace(p) {
+            // Keep a pending request for a full frame even if its pose is superseded.
+            if old.want_full {
+                if let Some(new) = slot.as_mut() {
+                    new.want_full = true;
+                }
+            }
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+            metrics::counter!("homcull_ws_dropped_poses_total").increment(1);
+        }
+        drop(slot);
+        self.ready.notify_one();
+    }
+
+    fn take(&self) -> Option<Pending> {
+        self.pose.lock().unwrap_or_else(|e| e.into_inner()).take()
+    }
+}
+
+type Sink = futures_util::stream::SplitSink<WebSocket, Message>;
+
+async fn client(
+    socket: WebSocket,
+    state: AppState,
+    scene: Arc<SceneEntry>,
+    options: CullOptions,
+    _slot: WsClientSlot,
+) {
+    let (sink, mut incoming) = socket.split();
+    let sink = Arc::new(Mutex::new(sink));
+    let send_timeout = Duration::from_secs(state.config.ws_send_timeout_s);
+    let mut seq: u32 = 0;
+    let hello = Frame::Hello(Hello {
+        seq,
+        object_count: scene.info.objects,
+        info_json: serde_json::json!({
+            "protocol_version": PROTOCOL_VERSION,
+            "scene": scene.info,
+            "adapter": state.adapter,
+            "cpu_fallback": state.gpu.is_none(),
+            "options": options,
+            "full_every": state.config.full_every,
+            "max_fps": state.config.ws_max_fps,
+        })
+        .to_string(),
+    });
+    if send(&sink, hello, send_timeout).await.is_err() {
+        return;
+    }
+
+    let mailbox = Arc::new(Mailbox::default());
+    let (err_tx, mut err_rx) = mpsc::channel::<ErrorFrame>(8);
+    let reader = {
+        let mailbox = mailbox.clone();
+        tokio::spawn(async move {
+            let mut bad = 0u32;
+            while let Some(msg) = incoming.next().await {
+                let parsed = match msg {
+                    Ok(Message::Binary(b)) => parse_binary(&b),
+                    Ok(Message::Text(t)) => parse_text(&t),
+                    Ok(Message::Close(_)) | Err(_) => break,
+                    Ok(_) => continue, // ping/pong are answered by the library
+                };
+                match parsed {
+                    Ok(p) => {
+                        bad = 0;
+                        mailbox.put(p);
+                    }
+                    Err(e) => {
+                        bad += 1;
+                        metrics::counter!("homcull_ws_bad_frames_total").increment(1);
+                        // A full error channel means the client is not reading: drop the report.
+                        let _ = err_tx.try_send(e);
+                        if bad >= MAX_BAD_MESSAGES {
+                            break;
+                        }
+                    }
+                }
+            }
+        })
+    };
+
+    let min_interval = Duration::from_secs_f64(1.0 / state.config.ws_max_fps.max(0.1));
+    let mut last_sent: Option<Instant> = None;
+    let mut last_set: Vec<u32> = Vec::new();
+    let mut since_full = u32::MAX;
+    let mut shutdown = state.shutdown.clone();
+    let mut reader = reader;
+    let close = loop {
+        tokio::select! {
+            _ = mailbox.ready.notified() => {}
+            Some(e) = err_rx.recv() => {
+                seq = seq.wrapping_add(1);
+                if send(&sink, Frame::Error(ErrorFrame { seq, ..e }), send_timeout).await.is_err() {
+                    break None;
+                }
+                continue;
+            }
+            _ = shutdown.changed() => break Some((1001, "server shutting down")),
+            _ = &mut reader => break Some((1000, "bye")),
+        }
+        if let Some(t) = last_sent {
+            tokio::time::sleep_until((t + min_interval).into()).await;
+        }
+        let Some(p) = mailbox.take() else { continue };
+        let started = Instant::now();
+        let answer = state
+            .worker
+            .cull(scene.clone(), vec![p.cam], options)
+            .await
+            .map(|mut v| v.remove(0));
+        seq = seq.wrapping_add(1);
+        let frame = match answer {
+            Err(e) => Frame::Error(ErrorFrame {
+                seq,
+                ack: p.seq,
+                code: if e.code == "overloaded" {
+                    ErrorCode::Overloaded
+                } else {
+                    ErrorCode::Internal
+                },
+                message: e.message,
+            }),
+            Ok(r) => {
+                let stats = frame_stats(&r, mailbox.dropped.swap(0, Ordering::Relaxed), started);
+                let full = p.want_full || since_full >= state.config.full_every;
+                let frame = if full {
+                    since_full = 0;
+                    Frame::Full(VisibleFull {
+                        seq,
+                        ack: p.seq,
+                        stats,
+                        ids: r.visible.clone(),
+                    })
+                } else {
+                    since_full += 1;
+                    let (added, removed) = diff(&last_set, &r.visible);
+                    Frame::Delta(VisibleDelta {
+                        seq,
+                        ack: p.seq,
+                        stats,
+                        added,
+                        removed,
+                    })
+                };
+                last_set = r.visible;
+                frame
+            }
+        };
+        last_sent = Some(Instant::now());
+        if send(&sink, frame, send_timeout).await.is_err() {
+            break None;
+        }
+    };
+    reader.abort();
+    if let Some((code, reason)) = close {
+        let frame = CloseFrame {
+            code,
+            reason: Utf8Bytes::from_static(reason),
+        };
+        let mut s = sink.lock().await;
+        let _ = tokio::time::timeout(send_timeout, s.send(Message::Close(Some(frame)))).await;
+    }
+}
+
+fn frame_stats(r: &PoseResult, dropped: u32, started: Instant) -> FrameStats {
+    let us = |ms: f64| (ms * 1e3).clamp(0.0, u32::MAX as f64) as u32;
+    FrameStats {
+        objects: r.stats.objects,
+        candidates: r.stats.candidates,
+        culled_by_frustum: r.stats.culled_by_frustum,
+        culled_by_occlusion: r.stats.culled_by_occlusion,
+        occluders_used: r.stats.occluders_used,
+        dropped_poses: dropped,
+        gpu_us: us(r.stats.gpu_ms),
+        total_us: us(started.elapsed().as_secs_f64() * 1e3),
+    }
+}
+
+async fn send(sink: &Mutex<Sink>, frame: Frame, timeout: Duration) -> Result<(), ()> {
+    let bytes = frame.encode();
+    let kind = frame.kind().name();
+    metrics::counter!("homcull_ws_frames_total", "kind" => kind).increment(1);
+    metrics::counter!("homcull_ws_frame_bytes_total", "kind" => kind).increment(bytes.len() as u64);
+    let mut s = sink.lock().await;
+    match tokio::time::timeout(timeout, s.send(Message::Binary(bytes.into()))).await {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(_)) => Err(()),
+        Err(_) => {
+            tracing::info!("a WebSocket client stopped reading; dropping it");
+            Err(())
+        }
+    }
+}
+
+fn bad(code: ErrorCode, message: String) -> ErrorFrame {
+    ErrorFrame {
+        seq: 0,
+        ack: 0,
+        code,
+        message,
+    }
+}
+
+fn parse_binary(bytes: &[u8]) -> Result<Pending, ErrorFrame> {
+    match Frame::decode(bytes) {
+        Ok(Frame::Pose(p)) => {
+            let cam = Camera::new(&p.to_pose()).map_err(|e| ErrorFrame {
+                ack: p.seq,
+                ..bad(ErrorCode::InvalidPose, e.to_string())
+            })?;
+            Ok(Pending {
+                seq: p.seq,
+                cam,
+                want_full: p.want_full,
+            })
+        }
+        Ok(other) => Err(bad(
+            ErrorCode::MalformedFrame,
+            format!("clients send pose frames, not {}", other.kind().name()),
+        )),
+        Err(e) => Err(bad(e.code(), e.to_string())),
+    }
+}
+
+fn parse_text(text: &str) -> Result<Pending, ErrorFrame> {
+    let m: PoseMessage = serde_json::from_str(text)
+        .map_err(|e| bad(ErrorCode::MalformedFrame, format!("pose message: {e}")))?;
+    let cam = Camera::new(&m.pose).map_err(|e| ErrorFrame {
+        ack: m.seq,
+        ..bad(ErrorCode::InvalidPose, e.to_string())
+    })?;
+    Ok(Pending {
+        seq: m.seq,
+        cam,
+        want_full: m.full,
+    })
+}
