@@ -58,7 +58,9 @@ fn serve(a: ServeArgs) -> Result<()> {
 }
 
 fn healthcheck(a: HealthcheckArgs) -> Result<()> {
-    let url = a.url.unwrap_or_else(homcull::server::healthcheck::default_url);
+    let url = a
+        .url
+        .unwrap_or_else(homcull::server::healthcheck::default_url);
     match homcull::server::healthcheck::check(&url, std::time::Duration::from_secs(2)) {
         Ok(()) => Ok(()),
         Err(e) => {

@@ -49,7 +49,10 @@ fn deploy_files_lint_and_agree() {
     match python(root, &["--version"]) {
         Ok(out) if out.status.success() => {}
         Ok(out) => {
-            unavailable(&format!("`python3 --version` failed: {}", text(&out).trim()));
+            unavailable(&format!(
+                "`python3 --version` failed: {}",
+                text(&out).trim()
+            ));
             return;
         }
         Err(e) => {
@@ -62,7 +65,7 @@ fn deploy_files_lint_and_agree() {
     match tools.status.code() {
         Some(0) => {}
         Some(2) => {
-            unavailable(&format!("lint tools missing: {}", text(&tools).trim()));
+            unavailable(&format!("lint tools: {}", text(&tools).trim()));
             return;
         }
         _ => panic!("`python3 {SCRIPT} --check-tools` failed:\n{}", text(&tools)),

@@ -68,15 +68,19 @@ CONTRACT: dict[str, tuple[str, str | None]] = {
     "HOMCULL_API_TOKEN": ("string", None),
     "HOMCULL_MAX_BATCH": ("uint", "1024"),
     "HOMCULL_MAX_UPLOAD_BYTES": ("uint", "268435456"),
+    "HOMCULL_MAX_JSON_BYTES": ("uint", "8388608"),
     "HOMCULL_MAX_WS_CLIENTS": ("uint", "1000"),
     "HOMCULL_WS_MAX_FPS": ("number", "120"),
     "HOMCULL_FULL_EVERY": ("uint", "120"),
     "HOMCULL_GPU_BATCH": ("uint", "64"),
     "HOMCULL_QUEUE": ("uint", "4096"),
-    "HOMCULL_REQUEST_TIMEOUT_S": ("number", "60"),
-    "HOMCULL_SHUTDOWN_GRACE_S": ("number", "10"),
-    "HOMCULL_RESCAN_S": ("number", "2"),
+    "HOMCULL_NO_BATCHING": ("bool", None),
+    "HOMCULL_REQUEST_TIMEOUT_S": ("uint", "60"),
+    "HOMCULL_WS_SEND_TIMEOUT_S": ("uint", "10"),
+    "HOMCULL_SHUTDOWN_GRACE_S": ("uint", "10"),
+    "HOMCULL_RESCAN_S": ("uint", "2"),
     "HOMCULL_BUDGET": ("uint", None),
+    "HOMCULL_NO_DEMO": ("bool", None),
     "HOMCULL_HEALTHCHECK_URL": ("url", None),
 }
 
@@ -257,9 +261,9 @@ def check_value_type(kind: str, value: str) -> str | None:
         elif kind == "url":
             if not re.match(r"https?://", v):
                 return "not an http(s) URL"
-        elif kind == "bool":
-            if v.lower() not in ("true", "false"):
-                return "not true/false"
+        elif kind == "bool":  # clap's FalseyValueParser for env-set flags
+            if v.lower() not in ("true", "false", "1", "0", "yes", "no", "on", "off", "y", "n", "t", "f"):
+                return "not a boolean (true/false)"
     except ValueError as e:
         return str(e)
     return None
@@ -636,7 +640,7 @@ def parse_clap_help(text: str) -> dict[str, str | None]:
     blocks = re.split(r"\n(?=\s*(?:-\w, )?--[\w-]+)", text)
     for b in blocks:
         flat = re.sub(r"\s+", " ", b)
-        for name in re.findall(r"\[env: ?([A-Z][A-Z0-9_]*)=", flat):
+        for name in re.findall(r"\[env: ?([A-Z][A-Z0-9_]*)[=\]]", flat):
             if not name.startswith("HOMCULL_"):
                 continue
             d = re.search(r"\[default: ([^\]]*)\]", flat)
@@ -708,6 +712,7 @@ def check_hadolint():
 def check_yamllint():
     exe = need_tool("yamllint")
     files = sorted(str(rel(f)) for f in DEPLOY.rglob("*") if f.suffix in (".yaml", ".yml"))
+    files.append(rel(YAMLLINT_CONFIG))
     if not files:
         raise CheckFailed("no YAML files under deploy/")
     p = run_tool([exe, "-s", "-f", "parsable", "-c", rel(YAMLLINT_CONFIG), *files])
@@ -1031,7 +1036,7 @@ def check_env_names(binfo: BinaryInfo):
         if not probs.expect(name in accepted, f"{where}: {name} is not an env var of `homcull serve`/`healthcheck` "
                                               f"(accepted: {', '.join(sorted(accepted))})"):
             continue
-        kind = infer_kind(accepted[name]) or (CONTRACT.get(name, (None,))[0])
+        kind = CONTRACT[name][0] if name in CONTRACT else infer_kind(accepted[name])
         if value is not None and kind:
             why = check_value_type(kind, value)
             probs.expect(why is None, f"{where}: {name}={value!r}: {why} (binary default {accepted[name]!r})")
@@ -1458,6 +1463,8 @@ def main() -> int:
     if args.skip_binary:
         rep.skipped.append(("binary", "--skip-binary"))
         print("skip  checks against the binary: --skip-binary")
+    elif binfo.error:
+        rep.run("checks against the binary", need_binary, binfo)
     else:
         rep.run("binary has the subcommands used", check_binary_subcommands, binfo)
         rep.run("HOMCULL_* names accepted by the binary", check_env_names, binfo)

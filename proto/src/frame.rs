@@ -15,7 +15,7 @@
 //! | word | field           | meaning                                                        |
 //! |-----:|-----------------|----------------------------------------------------------------|
 //! | 0    | `magic`         | [`MAGIC`] `0x4C434D48`: bytes `48 4D 43 4C`, ASCII `HMCL`       |
-//! | 1    | `version`       | [`PROTOCOL_VERSION`](crate::PROTOCOL_VERSION) (currently 1)     |
+//! | 1    | `version`       | [`PROTOCOL_VERSION`] (currently 1)                              |
 //! | 2    | `kind`          | [`FrameKind`]: 1 Hello, 2 Pose, 3 Full, 4 Delta, 5 Error        |
 //! | 3    | `seq`           | the sender's sequence number (see below)                      |
 //! | 4    | `ack`           | Full/Delta/Error: the pose `seq` answered, 0 if none; Hello and Pose: always 0 |
@@ -44,7 +44,7 @@
 //! - **Delta**: the IDs that became visible and those that stopped being visible since the
 //!   previous Full/Delta sent to the same client; each list strictly ascending, and no ID
 //!   in both. [`apply_delta`] applies one, [`diff`] computes one.
-//! - **Error**: a [`ErrorCode`] and a human-readable message.
+//! - **Error**: an [`ErrorCode`] and a human-readable message.
 //!
 //! The stats block of Full and Delta is 8 `u32` words ([`FrameStats`]):
 //!
@@ -90,6 +90,25 @@
 //!    pose flags, error code, zero padding, UTF-8, ascending and disjoint ID lists.
 //!
 //! [`FrameError::code`] gives the [`ErrorCode`] a server answers a bad frame with.
+//!
+//! # Example
+//!
+//! ```
+//! use homcull_proto::frame::{apply_delta, diff, Frame, FrameStats, VisibleDelta, VisibleFull};
+//!
+//! let full = Frame::Full(VisibleFull { seq: 1, ack: 7, stats: FrameStats::default(), ids: vec![2, 3, 9] });
+//! let bytes = full.encode();
+//! assert_eq!(&bytes[..4], b"HMCL");
+//! assert_eq!(Frame::decode(&bytes), Ok(full));
+//!
+//! // The next answer as a delta, and the client applying it.
+//! let (added, removed) = diff(&[2, 3, 9], &[3, 4, 9]);
+//! let delta = VisibleDelta { seq: 2, ack: 8, stats: FrameStats::default(), added, removed };
+//! let Ok(Frame::Delta(received)) = Frame::decode(&Frame::Delta(delta).encode()) else { panic!() };
+//! let mut visible = vec![2, 3, 9];
+//! apply_delta(&mut visible, &received).unwrap();
+//! assert_eq!(visible, [3, 4, 9]);
+//! ```
 
 use std::fmt;
 
@@ -395,10 +414,15 @@ pub struct ErrorFrame {
 /// Any frame.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Frame {
+    /// Kind 1, server → client.
     Hello(Hello),
+    /// Kind 2, client → server.
     Pose(PoseFrame),
+    /// Kind 3, server → client.
     Full(VisibleFull),
+    /// Kind 4, server → client.
     Delta(VisibleDelta),
+    /// Kind 5, server → client.
     Error(ErrorFrame),
 }
 

@@ -93,7 +93,7 @@ fn delta(added: &[u32], removed: &[u32]) -> Vec<u8> {
 /// `[a][byte_len]` and the bytes padded with `pad` bytes.
 fn text_payload(first: u32, text: &[u8], pad: u8) -> Vec<u32> {
     let mut b = text.to_vec();
-    while b.len() % 4 != 0 {
+    while !b.len().is_multiple_of(4) {
         b.push(pad);
     }
     let mut p = vec![first, text.len() as u32];

@@ -9,6 +9,7 @@ use homcull_proto::frame::{
 use homcull_proto::{PROTOCOL_VERSION, Pose};
 use proptest::collection::{btree_map, btree_set, vec};
 use proptest::prelude::*;
+use proptest::test_runner::FileFailurePersistence;
 
 /// Any f32 bit pattern: NaNs with payloads, infinities, subnormals, −0.
 fn any_f32() -> impl Strategy<Value = f32> {
@@ -151,14 +152,10 @@ fn same(a: &Frame, b: &Frame) -> bool {
     }
 }
 
-fn words(bytes: &[u8]) -> Vec<u8> {
-    bytes.to_vec()
-}
-
 /// Decodes `bytes`; whatever is accepted must re-encode to exactly `bytes`.
 fn decode_is_canonical(bytes: &[u8]) -> Result<(), TestCaseError> {
     if let Ok(frame) = Frame::decode(bytes) {
-        prop_assert_eq!(frame.encode(), words(bytes));
+        prop_assert_eq!(frame.encode(), bytes.to_vec());
         prop_assert_eq!(frame.validate(), Ok(()));
     }
     Ok(())
@@ -201,8 +198,20 @@ fn mutate(bytes: &mut Vec<u8>, m: &Mutation) {
     }
 }
 
+fn config() -> ProptestConfig {
+    ProptestConfig {
+        cases: 1024,
+        // Relative to proto/, where cargo runs the tests (the default, next to the source
+        // file, cannot find it from a workspace member).
+        failure_persistence: Some(Box::new(FileFailurePersistence::Direct(
+            "tests/roundtrip.proptest-regressions",
+        ))),
+        ..ProptestConfig::default()
+    }
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(512))]
+    #![proptest_config(config())]
 
     #[test]
     fn encode_decode_round_trips(frame in any_frame()) {
@@ -247,7 +256,7 @@ proptest! {
             mutate(&mut bytes, m);
         }
         decode_is_canonical(&bytes)?;
-        // Any single mutation that changed the bytes must not decode to the same frame.
+        // Decoding is canonical, so bytes that changed cannot decode to the same frame.
         if bytes != frame.encode() {
             if let Ok(other) = Frame::decode(&bytes) {
                 prop_assert!(!same(&other, &frame));

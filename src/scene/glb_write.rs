@@ -44,8 +44,10 @@ pub fn write_glb(scene: &Scene) -> Vec<u8> {
             views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": indices.len() * 4, "target": 34963}));
             bin.extend_from_slice(bytemuck::cast_slice(&indices));
             let pos_acc = accessors.len();
-            accessors.push(json!({"bufferView": pos_view, "componentType": 5126, "count": local.len(),
-                "type": "VEC3", "min": lo.to_array(), "max": hi.to_array()}));
+            accessors.push(
+                json!({"bufferView": pos_view, "componentType": 5126, "count": local.len(),
+                "type": "VEC3", "min": lo.to_array(), "max": hi.to_array()}),
+            );
             accessors.push(json!({"bufferView": idx_view, "componentType": 5125, "count": indices.len(), "type": "SCALAR"}));
             meshes.push(json!({"name": o.name, "primitives": [{"attributes": {"POSITION": pos_acc}, "indices": pos_acc + 1}]}));
         } else {
@@ -73,7 +75,13 @@ pub fn write_glb(scene: &Scene) -> Vec<u8> {
     }
     let total = 12 + 8 + json_bytes.len() + 8 + bin.len();
     let mut out = Vec::with_capacity(total);
-    for w in [GLB_MAGIC, 2, total as u32, json_bytes.len() as u32, CHUNK_JSON] {
+    for w in [
+        GLB_MAGIC,
+        2,
+        total as u32,
+        json_bytes.len() as u32,
+        CHUNK_JSON,
+    ] {
         out.extend_from_slice(&w.to_le_bytes());
     }
     out.extend_from_slice(&json_bytes);
@@ -96,7 +104,10 @@ mod tests {
         let back = load_glb_bytes(&glb, "demo").unwrap();
         assert_eq!(back.objects.len(), scene.objects.len());
         for (a, b) in scene.objects.iter().zip(&back.objects) {
-            assert_eq!((a.id, &a.name, a.triangles()), (b.id, &b.name, b.triangles()));
+            assert_eq!(
+                (a.id, &a.name, a.triangles()),
+                (b.id, &b.name, b.triangles())
+            );
             assert!((a.aabb.min - b.aabb.min).abs().max_element() < 1e-4);
             assert!((a.aabb.max - b.aabb.max).abs().max_element() < 1e-4);
         }

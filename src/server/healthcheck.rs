@@ -28,11 +28,17 @@ pub fn check(url: &str, timeout: Duration) -> Result<(), String> {
         .map_err(|e| format!("resolving {host}: {e}"))?
         .next()
         .ok_or_else(|| format!("{host} resolves to nothing"))?;
-    let mut s = TcpStream::connect_timeout(&addr, timeout).map_err(|e| format!("connecting to {addr}: {e}"))?;
-    s.set_read_timeout(Some(timeout)).map_err(|e| e.to_string())?;
-    s.set_write_timeout(Some(timeout)).map_err(|e| e.to_string())?;
-    write!(s, "GET {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n")
-        .map_err(|e| format!("sending: {e}"))?;
+    let mut s = TcpStream::connect_timeout(&addr, timeout)
+        .map_err(|e| format!("connecting to {addr}: {e}"))?;
+    s.set_read_timeout(Some(timeout))
+        .map_err(|e| e.to_string())?;
+    s.set_write_timeout(Some(timeout))
+        .map_err(|e| e.to_string())?;
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n"
+    )
+    .map_err(|e| format!("sending: {e}"))?;
     let mut head = [0u8; 64];
     let n = s.read(&mut head).map_err(|e| format!("reading: {e}"))?;
     let line = String::from_utf8_lossy(&head[..n]);
@@ -40,6 +46,9 @@ pub fn check(url: &str, timeout: Duration) -> Result<(), String> {
     if status == "200" {
         Ok(())
     } else {
-        Err(format!("{url} answered `{}`", line.lines().next().unwrap_or("")))
+        Err(format!(
+            "{url} answered `{}`",
+            line.lines().next().unwrap_or("")
+        ))
     }
 }

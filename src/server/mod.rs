@@ -43,18 +43,40 @@ use store::Store;
 /// The OpenAPI description served at `/openapi.json`.
 #[derive(OpenApi)]
 #[openapi(
-    info(title = "homcull", description = "Occlusion culling as a service: send camera poses, get the IDs of objects that may be visible."),
+    info(
+        title = "homcull",
+        description = "Occlusion culling as a service: send camera poses, get the IDs of objects that may be visible."
+    ),
     paths(
-        routes::healthz, routes::readyz, routes::metrics, routes::list_scenes, routes::upload_scene,
-        routes::get_scene, routes::list_objects, routes::get_glb, routes::delete_scene,
-        routes::cull, routes::cull_batch, ws::stream
+        routes::healthz,
+        routes::readyz,
+        routes::metrics,
+        routes::list_scenes,
+        routes::upload_scene,
+        routes::get_scene,
+        routes::list_objects,
+        routes::get_glb,
+        routes::delete_scene,
+        routes::cull,
+        routes::cull_batch,
+        ws::stream
     ),
     components(schemas(
-        homcull_proto::Pose, homcull_proto::CullOptions, homcull_proto::Method,
-        homcull_proto::DebVariant, homcull_proto::CullStats, homcull_proto::CullResponse,
-        homcull_proto::SceneInfo, homcull_proto::SceneList, homcull_proto::ObjectInfo,
-        homcull_proto::ObjectList, homcull_proto::CullRequest, homcull_proto::BatchRequest,
-        homcull_proto::BatchResponse, homcull_proto::ErrorBody, homcull_proto::ErrorDetail,
+        homcull_proto::Pose,
+        homcull_proto::CullOptions,
+        homcull_proto::Method,
+        homcull_proto::DebVariant,
+        homcull_proto::CullStats,
+        homcull_proto::CullResponse,
+        homcull_proto::SceneInfo,
+        homcull_proto::SceneList,
+        homcull_proto::ObjectInfo,
+        homcull_proto::ObjectList,
+        homcull_proto::CullRequest,
+        homcull_proto::BatchRequest,
+        homcull_proto::BatchResponse,
+        homcull_proto::ErrorBody,
+        homcull_proto::ErrorDetail,
         homcull_proto::PoseMessage
     ))
 )]
@@ -80,10 +102,7 @@ pub fn app(state: AppState) -> Router {
         )
         .route("/v1/scenes/{id}/objects", get(routes::list_objects))
         .route("/v1/scenes/{id}/glb", get(routes::get_glb))
-        .route(
-            "/v1/scenes/{id}/cull",
-            post(routes::cull).layer(json_limit),
-        )
+        .route("/v1/scenes/{id}/cull", post(routes::cull).layer(json_limit))
         .route(
             "/v1/scenes/{id}/cull/batch",
             post(routes::cull_batch).layer(json_limit),

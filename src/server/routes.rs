@@ -83,7 +83,11 @@ fn check_token(state: &AppState, headers: &HeaderMap) -> Result<(), ApiError> {
         .and_then(|v| v.strip_prefix("Bearer "));
     // Compare without an early exit so timing does not reveal the token's prefix.
     let ok = given.is_some_and(|g| {
-        g.len() == token.len() && g.bytes().zip(token.bytes()).fold(0, |a, (x, y)| a | (x ^ y)) == 0
+        g.len() == token.len()
+            && g.bytes()
+                .zip(token.bytes())
+                .fold(0, |a, (x, y)| a | (x ^ y))
+                == 0
     });
     if ok {
         Ok(())
@@ -98,7 +102,11 @@ fn check_token(state: &AppState, headers: &HeaderMap) -> Result<(), ApiError> {
 
 fn body_error(e: BytesRejection) -> ApiError {
     if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
-        ApiError::new(e.status(), "too_large", format!("request body too large: {e}"))
+        ApiError::new(
+            e.status(),
+            "too_large",
+            format!("request body too large: {e}"),
+        )
     } else {
         ApiError::new(e.status(), "bad_body", e.body_text())
     }
@@ -126,14 +134,20 @@ pub async fn upload_scene(
         ));
     }
     if body.is_empty() {
-        return Err(ApiError::bad_request("invalid_glb", "the body is empty; send a GLB file"));
+        return Err(ApiError::bad_request(
+            "invalid_glb",
+            "the body is empty; send a GLB file",
+        ));
     }
     let st = state.clone();
     let entry = tokio::task::spawn_blocking(move || -> Result<Arc<SceneEntry>, ApiError> {
         let scene = load_glb_bytes(&body, &name)
             .map_err(|e| ApiError::bad_request("invalid_glb", format!("not a usable GLB: {e}")))?;
         if scene.objects.is_empty() {
-            return Err(ApiError::bad_request("invalid_glb", "the file has no mesh-bearing nodes"));
+            return Err(ApiError::bad_request(
+                "invalid_glb",
+                "the file has no mesh-bearing nodes",
+            ));
         }
         st.create(&name, &body, scene)
             .map_err(|e| ApiError::internal(format!("storing the scene: {e}")))
@@ -273,7 +287,10 @@ pub async fn cull_batch(
         .poses
         .iter()
         .enumerate()
-        .map(|(i, p)| Camera::new(p).map_err(|e| ApiError::bad_request("invalid_pose", format!("pose {i}: {e}"))))
+        .map(|(i, p)| {
+            Camera::new(p)
+                .map_err(|e| ApiError::bad_request("invalid_pose", format!("pose {i}: {e}")))
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let scene = state.scene(&id)?;
     if cams.is_empty() {

@@ -145,7 +145,12 @@ impl AppState {
     }
 
     pub fn scene(&self, id: &str) -> Result<Arc<SceneEntry>, ApiError> {
-        let found = self.scenes.read().unwrap_or_else(|p| p.into_inner()).get(id).cloned();
+        let found = self
+            .scenes
+            .read()
+            .unwrap_or_else(|p| p.into_inner())
+            .get(id)
+            .cloned();
         match found {
             Some(s) => Ok(s),
             None if !self.ready.load(Ordering::SeqCst) => Err(ApiError::new(
@@ -188,7 +193,9 @@ impl AppState {
         let cap = self.config.max_ws_clients;
         let taken = self
             .ws_clients
-            .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| (n < cap).then_some(n + 1));
+            .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| {
+                (n < cap).then_some(n + 1)
+            });
         taken.ok().map(|_| {
             metrics::gauge!("homcull_ws_clients").increment(1.0);
             WsClientSlot(self.clone())
@@ -211,13 +218,20 @@ impl AppState {
             None,
             self.gpu.clone(),
         );
-        tracing::info!(objects = entry.info.objects, ms = t.elapsed().as_millis() as u64, "demo city ready");
+        tracing::info!(
+            objects = entry.info.objects,
+            ms = t.elapsed().as_millis() as u64,
+            "demo city ready"
+        );
         self.insert(entry);
     }
 
     /// Loads a stored scene by id (blocking), caching its occluders if needed.
     pub fn load_stored(&self, id: &str) -> Result<Arc<SceneEntry>, String> {
-        let (meta, glb) = self.store.read(id).map_err(|e| format!("reading scene {id}: {e}"))?;
+        let (meta, glb) = self
+            .store
+            .read(id)
+            .map_err(|e| format!("reading scene {id}: {e}"))?;
         let scene = load_glb_bytes(&glb, &meta.name).map_err(|e| format!("scene {id}: {e}"))?;
         Ok(self.prepare(&meta, scene, glb.len() as u64))
     }
@@ -244,7 +258,10 @@ impl AppState {
             self.gpu.clone(),
         );
         if !cached {
-            if let Err(e) = self.store.write_occluders(&meta.id, &entry.occluder_cache()) {
+            if let Err(e) = self
+                .store
+                .write_occluders(&meta.id, &entry.occluder_cache())
+            {
                 tracing::warn!(id = %meta.id, "could not cache the occluder database: {e}");
             }
         }
@@ -275,11 +292,18 @@ impl AppState {
             .cloned()
             .collect();
         for id in &on_disk {
-            let failed = self.failed.lock().unwrap_or_else(|p| p.into_inner()).contains(id);
+            let failed = self
+                .failed
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .contains(id);
             if !resident.contains(id) && !failed {
                 if let Err(e) = self.load_stored(id) {
                     tracing::warn!("skipping a stored scene: {e}");
-                    self.failed.lock().unwrap_or_else(|p| p.into_inner()).insert(id.clone());
+                    self.failed
+                        .lock()
+                        .unwrap_or_else(|p| p.into_inner())
+                        .insert(id.clone());
                 }
             }
         }

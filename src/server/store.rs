@@ -59,7 +59,10 @@ const STALE_TMP: Duration = Duration::from_secs(3600);
 
 /// Scene ids are 16 lowercase hex digits (or `demo`); anything else is not ours.
 pub fn valid_id(id: &str) -> bool {
-    id.len() == 16 && id.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+    id.len() == 16
+        && id
+            .bytes()
+            .all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
 }
 
 impl Store {
@@ -79,7 +82,8 @@ impl Store {
                 .is_some_and(|age| age > STALE_TMP);
             if old {
                 tracing::info!(path = %e.path().display(), "removing a stale temp entry");
-                let _ = std::fs::remove_dir_all(e.path()).or_else(|_| std::fs::remove_file(e.path()));
+                let _ =
+                    std::fs::remove_dir_all(e.path()).or_else(|_| std::fs::remove_file(e.path()));
             }
         }
         Ok(store)
@@ -173,8 +177,11 @@ impl Store {
     pub fn write_occluders(&self, id: &str, cache: &OccluderCache) -> std::io::Result<()> {
         let dir = self.scene_dir(id);
         let tmp = dir.join(format!(".occluders.{:08x}.tmp", rand::random::<u32>()));
-        let res = write_synced(&tmp, &serde_json::to_vec(cache).map_err(std::io::Error::other)?)
-            .and_then(|()| std::fs::rename(&tmp, dir.join("occluders.json")));
+        let res = write_synced(
+            &tmp,
+            &serde_json::to_vec(cache).map_err(std::io::Error::other)?,
+        )
+        .and_then(|()| std::fs::rename(&tmp, dir.join("occluders.json")));
         if res.is_err() {
             let _ = std::fs::remove_file(&tmp);
         }

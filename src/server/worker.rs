@@ -55,7 +55,9 @@ impl WorkerHandle {
                 metrics::counter!("homcull_worker_rejected_total").increment(1);
                 ApiError::overloaded("the GPU queue is full; try again shortly")
             }
-            mpsc::error::TrySendError::Closed(_) => ApiError::internal("the GPU worker has stopped"),
+            mpsc::error::TrySendError::Closed(_) => {
+                ApiError::internal("the GPU worker has stopped")
+            }
         })?;
         rx.await
             .map_err(|_| ApiError::internal("the GPU worker dropped the request"))?
@@ -116,7 +118,10 @@ fn group_jobs(jobs: Vec<CullJob>) -> Vec<Vec<CullJob>> {
         }
         groups.entry(key).or_default().push(job);
     }
-    order.into_iter().filter_map(|k| groups.remove(&k)).collect()
+    order
+        .into_iter()
+        .filter_map(|k| groups.remove(&k))
+        .collect()
 }
 
 /// Runs one batch on a scene's engine, turning panics into errors so that one bad

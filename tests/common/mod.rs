@@ -36,3 +36,5 @@ pub fn scenes_dir() -> Option<PathBuf> {
         None
     }
 }
+
+pub mod server;

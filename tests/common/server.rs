@@ -1,0 +1,120 @@
+//! A homcull server started in-process on 127.0.0.1:0 for integration tests.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use homcull::config::ServeArgs;
+use homcull_proto::Pose;
+use tokio::sync::oneshot;
+
+pub struct TestServer {
+    pub base: String,
+    pub addr: std::net::SocketAddr,
+    pub data_dir: PathBuf,
+    pub adapter: String,
+    stop: Option<oneshot::Sender<()>>,
+    task: Option<tokio::task::JoinHandle<std::io::Result<()>>>,
+    _tmp: Option<tempfile::TempDir>,
+}
+
+/// Defaults for tests: a private data dir, quick rescans, no frame-rate cap worth noticing.
+pub fn config(data_dir: &Path) -> ServeArgs {
+    ServeArgs {
+        addr: "127.0.0.1:0".parse().unwrap(),
+        data_dir: data_dir.to_path_buf(),
+        api_token: None,
+        ws_max_fps: 10_000.0,
+        rescan_s: 0,
+        ..ServeArgs::default()
+    }
+}
+
+impl TestServer {
+    /// Starts a server with its own temporary data dir.
+    pub async fn start(edit: impl FnOnce(&mut ServeArgs)) -> TestServer {
+        let tmp = tempfile::tempdir().unwrap();
+        let mut s = Self::start_in(tmp.path(), edit).await;
+        s._tmp = Some(tmp);
+        s
+    }
+
+    /// Starts a server on the given data dir and waits until `/readyz` says ready.
+    pub async fn start_in(data_dir: &Path, edit: impl FnOnce(&mut ServeArgs)) -> TestServer {
+        let mut cfg = config(data_dir);
+        edit(&mut cfg);
+        let listener = tokio::net::TcpListener::bind(cfg.addr).await.unwrap();
+        let addr = listener.local_addr().unwrap();
+        let (state, shutdown_tx) = homcull::server::start(cfg, super::gpu()).unwrap();
+        let adapter = state.adapter.clone();
+        let (stop, stopped) = oneshot::channel::<()>();
+        let task = tokio::spawn(homcull::server::run(listener, state, shutdown_tx, async {
+            let _ = stopped.await;
+        }));
+        let base = format!("http://{addr}");
+        let client = reqwest::Client::new();
+        for _ in 0..600 {
+            if let Ok(r) = client.get(format!("{base}/readyz")).send().await {
+                if r.status() == 200 {
+                    break;
+                }
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        TestServer {
+            base,
+            addr,
+            data_dir: data_dir.to_path_buf(),
+            adapter,
+            stop: Some(stop),
+            task: Some(task),
+            _tmp: None,
+        }
+    }
+
+    pub fn url(&self, path: &str) -> String {
+        format!("{}{path}", self.base)
+    }
+
+    pub fn ws_url(&self, path: &str) -> String {
+        format!("ws://{}{path}", self.addr)
+    }
+
+    /// Graceful shutdown; returns once the server task has finished.
+    pub async fn stop(mut self) {
+        if let Some(s) = self.stop.take() {
+            let _ = s.send(());
+        }
+        if let Some(t) = self.task.take() {
+            tokio::time::timeout(Duration::from_secs(30), t)
+                .await
+                .expect("server stops within 30 s")
+                .unwrap()
+                .unwrap();
+        }
+    }
+
+    /// Sends the shutdown signal without waiting.
+    pub fn signal_stop(&mut self) {
+        if let Some(s) = self.stop.take() {
+            let _ = s.send(());
+        }
+    }
+}
+
+/// A street-level walk through the demo city: along the x axis on the z = 0 street,
+/// eye 1.7 m up, looking roughly along the walk with a slow sway.
+pub fn street_walk(n: usize, viewport: [u32; 2]) -> Vec<Pose> {
+    (0..n)
+        .map(|i| {
+            let x = -150.0 + 300.0 * i as f32 / n as f32;
+            let yaw = -std::f32::consts::FRAC_PI_2 + 0.6 * (i as f32 * 0.05).sin();
+            let (s, c) = (yaw / 2.0).sin_cos();
+            Pose {
+                rotation: Some([0.0, s, 0.0, c]),
+                look_at: None,
+                viewport,
+                ..Pose::looking_at([x, 1.7, 0.0], [0.0; 3])
+            }
+        })
+        .collect()
+}
