@@ -5,6 +5,7 @@
 //! - [`worker`]: the one GPU worker that batches every waiting pose into one submission.
 //! - [`state`]: resident scenes and shared state; [`store`]: the data directory.
 //! - [`error`]: the one JSON error shape; [`metrics`]: Prometheus.
+//! - [`static_files`]: the embedded browser viewer (`web/dist`) at `/`.
 //! - [`healthcheck`]: the `homcull healthcheck` client for container probes.
 //!
 //! [`start`] builds the state (GPU, worker, scenes loading in the background) and
@@ -15,6 +16,7 @@ pub mod error;
 pub mod healthcheck;
 pub mod metrics;
 pub mod routes;
+pub mod static_files;
 pub mod state;
 pub mod store;
 pub mod worker;
@@ -114,13 +116,7 @@ pub fn app(state: AppState) -> Router {
         ))
         .route_layer(axum::middleware::from_fn(metrics::track));
     api.merge(SwaggerUi::new("/docs").url("/openapi.json", ApiDoc::openapi()))
-        .fallback(|| async {
-            error::ApiError::new(
-                axum::http::StatusCode::NOT_FOUND,
-                "not_found",
-                "no such route (see /docs)",
-            )
-        })
+        .fallback(static_files::serve)
         .layer(TraceLayer::new_for_http())
         .with_state(state)
 }
