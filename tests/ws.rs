@@ -1,0 +1,362 @@
+//! WebSocket streaming: deltas reproduce REST answers, concurrency, latest pose wins,
+//! slow and bad clients, caps and shutdown.
+
+mod common;
+
+use std::time::Duration;
+
+use common::server::{TestServer, street_walk};
+use futures_util::{SinkExt, StreamExt};
+use homcull_proto::frame::{ErrorCode, Frame, PoseFrame, apply_delta};
+use homcull_proto::{CullResponse, Pose};
+use serde_json::json;
+use tokio_tungstenite::tungstenite::Message;
+
+type Ws =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+async fn connect(srv: &TestServer, query: &str) -> Ws {
+    let (mut ws, _) =
+        tokio_tungstenite::connect_async(srv.ws_url(&format!("/v1/scenes/demo/stream{query}")))
+            .await
+            .expect("upgrade");
+    match next_frame(&mut ws).await {
+        Frame::Hello(h) => {
+            let info: serde_json::Value = serde_json::from_str(&h.info_json).unwrap();
+            assert_eq!(info["protocol_version"], homcull_proto::PROTOCOL_VERSION);
+            assert_eq!(info["scene"]["id"], "demo");
+            assert_eq!(
+                h.object_count,
+                info["scene"]["objects"].as_u64().unwrap() as u32
+            );
+        }
+        f => panic!("expected hello, got {f:?}"),
+    }
+    ws
+}
+
+async fn next_frame(ws: &mut Ws) -> Frame {
+    loop {
+        let msg = tokio::time::timeout(Duration::from_secs(60), ws.next())
+            .await
+            .expect("a frame within 60 s")
+            .expect("stream open")
+            .expect("no socket error");
+        match msg {
+            Message::Binary(b) => return Frame::decode(&b).expect("server frames decode"),
+            Message::Ping(_) | Message::Pong(_) => continue,
+            m => panic!("unexpected message {m:?}"),
+        }
+    }
+}
+
+fn pose_frame(seq: u32, pose: &Pose, want_full: bool) -> Message {
+    Message::Binary(
+        Frame::Pose(PoseFrame::from_pose(seq, want_full, pose).unwrap())
+            .encode()
+            .into(),
+    )
+}
+
+/// Client-side state: the visible set kept up to date by full and delta frames.
+#[derive(Default)]
+struct Tracker {
+    set: Vec<u32>,
+    full_bytes: usize,
+    delta_bytes: usize,
+    frames: usize,
+    dropped: u32,
+}
+
+impl Tracker {
+    /// Applies one visibility frame; returns the pose seq it answers.
+    fn apply(&mut self, f: &Frame) -> u32 {
+        self.frames += 1;
+        match f {
+            Frame::Full(v) => {
+                self.full_bytes += f.encoded_len();
+                self.dropped += v.stats.dropped_poses;
+                self.set = v.ids.clone();
+                v.ack
+            }
+            Frame::Delta(d) => {
+                self.delta_bytes += f.encoded_len();
+                self.dropped += d.stats.dropped_poses;
+                apply_delta(&mut self.set, d).expect("deltas apply to the last set");
+                d.ack
+            }
+            f => panic!("expected a visibility frame, got {f:?}"),
+        }
+    }
+}
+
+async fn rest_cull(http: &reqwest::Client, srv: &TestServer, pose: &Pose) -> Vec<u32> {
+    let r: CullResponse = http
+        .post(srv.url("/v1/scenes/demo/cull"))
+        .json(&json!({ "pose": pose }))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    r.visible
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_300_pose_walk_over_deltas_matches_rest_after_every_frame() {
+    let srv = TestServer::start(|c| c.full_every = 1000).await;
+    let http = reqwest::Client::new();
+    let mut ws = connect(&srv, "").await;
+    let poses = street_walk(300, [480, 270]);
+    let mut t = Tracker::default();
+    let mut full_sizes = Vec::new();
+    for (i, pose) in poses.iter().enumerate() {
+        let seq = i as u32 + 1;
+        ws.send(pose_frame(seq, pose, false)).await.unwrap();
+        let f = next_frame(&mut ws).await;
+        assert_eq!(t.apply(&f), seq);
+        assert_eq!(t.set, rest_cull(&http, &srv, pose).await, "pose {i}");
+        full_sizes.push(16 + 4 * (6 + 8 + 1 + t.set.len()));
+    }
+    assert_eq!(t.dropped, 0, "one pose in flight at a time drops nothing");
+    // Only the first frame is full; the rest are deltas.
+    let deltas = t.delta_bytes as f64;
+    let as_full: usize = full_sizes[1..].iter().sum();
+    let ratio = deltas / as_full as f64;
+    eprintln!(
+        "street walk: {} frames, delta bytes {} vs {} as full frames: ratio {ratio:.3}",
+        t.frames, t.delta_bytes, as_full
+    );
+    assert!(
+        ratio < 0.5,
+        "deltas are much smaller than full frames on a walk"
+    );
+    // Asking for a full frame gets one, with the same set.
+    ws.send(pose_frame(1000, &poses[299], true)).await.unwrap();
+    match next_frame(&mut ws).await {
+        Frame::Full(v) => assert_eq!((v.ack, v.ids), (1000, t.set.clone())),
+        f => panic!("expected a full frame, got {f:?}"),
+    }
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn fifty_concurrent_clients_get_their_own_answers() {
+    let srv = TestServer::start(|_| {}).await;
+    let http = reqwest::Client::new();
+    let poses = street_walk(50, [320, 180]);
+    let mut expected = Vec::new();
+    for p in &poses {
+        expected.push(rest_cull(&http, &srv, p).await);
+    }
+    let mut tasks = Vec::new();
+    for k in 0..50 {
+        let mut ws = connect(&srv, "").await;
+        let poses = poses.clone();
+        let expected = expected.clone();
+        tasks.push(tokio::spawn(async move {
+            let mut t = Tracker::default();
+            // Each client walks 5 poses starting at its own offset.
+            for step in 0..5 {
+                let i = (k + step * 7) % poses.len();
+                let seq = step as u32 + 1;
+                ws.send(pose_frame(seq, &poses[i], false)).await.unwrap();
+                let f = next_frame(&mut ws).await;
+                assert_eq!(t.apply(&f), seq);
+                assert_eq!(t.set, expected[i], "client {k}, step {step}");
+            }
+            ws.close(None).await.ok();
+        }));
+    }
+    for t in tasks {
+        t.await.unwrap();
+    }
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn latest_pose_wins_and_drops_are_counted() {
+    let srv = TestServer::start(|c| c.ws_max_fps = 20.0).await;
+    let http = reqwest::Client::new();
+    let mut ws = connect(&srv, "").await;
+    let poses = street_walk(60, [320, 180]);
+    for (i, p) in poses.iter().enumerate() {
+        ws.send(pose_frame(i as u32 + 1, p, false)).await.unwrap();
+    }
+    let mut t = Tracker::default();
+    let last = poses.len() as u32;
+    let mut acks = Vec::new();
+    loop {
+        let f = next_frame(&mut ws).await;
+        let ack = t.apply(&f);
+        acks.push(ack);
+        if ack == last {
+            break;
+        }
+    }
+    assert!(
+        acks.windows(2).all(|w| w[0] < w[1]),
+        "answers never go back in time: {acks:?}"
+    );
+    assert!(
+        t.frames < poses.len(),
+        "superseded poses were dropped, not queued"
+    );
+    assert_eq!(
+        t.frames as u32 + t.dropped,
+        last,
+        "every pose is answered or counted as dropped"
+    );
+    assert_eq!(t.set, rest_cull(&http, &srv, &poses[59]).await);
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn bad_frames_get_error_frames_and_the_stream_goes_on() {
+    let srv = TestServer::start(|_| {}).await;
+    let http = reqwest::Client::new();
+    let mut ws = connect(&srv, "").await;
+    let pose = street_walk(1, [320, 180]).remove(0);
+    let good = Frame::Pose(PoseFrame::from_pose(7, false, &pose).unwrap()).encode();
+    let mut bad_version = good.clone();
+    bad_version[4] = 99;
+    let mut nan = PoseFrame::from_pose(8, false, &pose).unwrap();
+    nan.position[0] = f32::NAN;
+    let cases: Vec<(Message, ErrorCode, u32)> = vec![
+        (
+            Message::Binary(vec![1, 2, 3].into()),
+            ErrorCode::MalformedFrame,
+            0,
+        ),
+        (
+            Message::Binary(good[..good.len() - 4].to_vec().into()),
+            ErrorCode::MalformedFrame,
+            0,
+        ),
+        (
+            Message::Binary(bad_version.into()),
+            ErrorCode::UnsupportedVersion,
+            0,
+        ),
+        (
+            Message::Binary(Frame::Pose(nan).encode().into()),
+            ErrorCode::InvalidPose,
+            8,
+        ),
+        (
+            Message::Text("{\"seq\": 1}".into()),
+            ErrorCode::MalformedFrame,
+            0,
+        ),
+        (
+            Message::Text(
+                json!({"seq": 9, "pose": {"position": [0, 1, 0], "viewport": [0, 0]}})
+                    .to_string()
+                    .into(),
+            ),
+            ErrorCode::InvalidPose,
+            9,
+        ),
+    ];
+    for (msg, code, ack) in cases {
+        ws.send(msg).await.unwrap();
+        match next_frame(&mut ws).await {
+            Frame::Error(e) => assert_eq!((e.code, e.ack), (code, ack), "{}", e.message),
+            f => panic!("expected an error frame, got {f:?}"),
+        }
+    }
+    // A JSON text pose and a binary pose both get answers.
+    ws.send(Message::Text(
+        json!({"seq": 10, "pose": pose}).to_string().into(),
+    ))
+    .await
+    .unwrap();
+    let mut t = Tracker::default();
+    assert_eq!(t.apply(&next_frame(&mut ws).await), 10);
+    ws.send(Message::Binary(good.into())).await.unwrap();
+    assert_eq!(t.apply(&next_frame(&mut ws).await), 7);
+    assert_eq!(t.set, rest_cull(&http, &srv, &pose).await);
+
+    // An oversized message closes that client only.
+    let mut big = connect(&srv, "").await;
+    let _ = big.send(Message::Binary(vec![0u8; 1 << 20].into())).await;
+    let closed = tokio::time::timeout(Duration::from_secs(10), async {
+        loop {
+            match big.next().await {
+                None | Some(Err(_)) | Some(Ok(Message::Close(_))) => break,
+                Some(Ok(_)) => continue,
+            }
+        }
+    })
+    .await;
+    assert!(closed.is_ok(), "the oversized client was closed");
+    ws.send(pose_frame(11, &pose, false)).await.unwrap();
+    assert_eq!(t.apply(&next_frame(&mut ws).await), 11);
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_client_that_never_reads_does_not_slow_the_others() {
+    let srv = TestServer::start(|c| c.ws_send_timeout_s = 2).await;
+    let http = reqwest::Client::new();
+    let poses = street_walk(40, [320, 180]);
+    // The stalled client floods poses and never reads an answer.
+    let stalled = connect(&srv, "").await;
+    let (mut tx, _rx_never_read) = stalled.split();
+    let flood_poses = poses.clone();
+    let flood = tokio::spawn(async move {
+        for i in 0..2000u32 {
+            let p = &flood_poses[i as usize % flood_poses.len()];
+            if tx.send(pose_frame(i + 1, p, true)).await.is_err() {
+                break;
+            }
+        }
+    });
+    let mut ws = connect(&srv, "").await;
+    let mut t = Tracker::default();
+    for (i, p) in poses.iter().enumerate() {
+        let seq = i as u32 + 1;
+        ws.send(pose_frame(seq, p, false)).await.unwrap();
+        let f = tokio::time::timeout(Duration::from_secs(20), next_frame(&mut ws))
+            .await
+            .expect("the reading client is answered while another stalls");
+        assert_eq!(t.apply(&f), seq);
+        assert_eq!(t.set, rest_cull(&http, &srv, p).await);
+    }
+    flood.abort();
+    assert_eq!(
+        http.get(srv.url("/healthz")).send().await.unwrap().status(),
+        200
+    );
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_client_cap_refuses_extra_clients_and_shutdown_sends_close_frames() {
+    let mut srv = TestServer::start(|c| c.max_ws_clients = 2).await;
+    let mut a = connect(&srv, "").await;
+    let _b = connect(&srv, "").await;
+    let refused = tokio_tungstenite::connect_async(srv.ws_url("/v1/scenes/demo/stream")).await;
+    match refused {
+        Err(tokio_tungstenite::tungstenite::Error::Http(r)) => assert_eq!(r.status(), 503),
+        other => panic!("a third client is refused with 503, got {other:?}"),
+    }
+    let bad = tokio_tungstenite::connect_async(srv.ws_url("/v1/scenes/nope/stream")).await;
+    assert!(
+        matches!(bad, Err(tokio_tungstenite::tungstenite::Error::Http(r)) if r.status() == 404)
+    );
+    srv.signal_stop();
+    let close = tokio::time::timeout(Duration::from_secs(10), async {
+        loop {
+            match a.next().await {
+                Some(Ok(Message::Close(Some(f)))) => return Some(u16::from(f.code)),
+                Some(Ok(_)) => continue,
+                _ => return None,
+            }
+        }
+    })
+    .await
+    .expect("a close frame within 10 s");
+    assert_eq!(close, Some(1001));
+}
