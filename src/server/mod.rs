@@ -189,6 +189,10 @@ pub async fn run(
     let grace = Duration::from_secs(state.config.shutdown_grace_s);
     let mut stopping = state.shutdown.clone();
     let app = app(state);
+    // Small frames must leave at once: no Nagle delay on any connection.
+    let listener = axum::serve::ListenerExt::tap_io(listener, |tcp| {
+        let _ = tcp.set_nodelay(true);
+    });
     let serve = axum::serve(listener, app).with_graceful_shutdown(async move {
         shutdown.await;
         tracing::info!("shutting down: draining requests and closing WebSockets");

@@ -187,7 +187,7 @@ async fn client(
     };
 
     let min_interval = Duration::from_secs_f64(1.0 / state.config.ws_max_fps.max(0.1));
-    let mut last_sent: Option<Instant> = None;
+    let mut last_started: Option<Instant> = None;
     let mut last_set: Vec<u32> = Vec::new();
     let mut since_full = u32::MAX;
     let mut shutdown = state.shutdown.clone();
@@ -205,11 +205,14 @@ async fn client(
             _ = shutdown.changed() => break Some((1001, "server shutting down")),
             _ = &mut reader => break Some((1000, "bye")),
         }
-        if let Some(t) = last_sent {
+        // Frame-rate cap: culls start at most `ws_max_fps` times a second (a cull that
+        // takes longer than the interval adds no wait).
+        if let Some(t) = last_started {
             tokio::time::sleep_until((t + min_interval).into()).await;
         }
         let Some(p) = mailbox.take() else { continue };
         let started = Instant::now();
+        last_started = Some(started);
         let answer = state
             .worker
             .cull(scene.clone(), vec![p.cam], options)
@@ -253,7 +256,6 @@ async fn client(
                 frame
             }
         };
-        last_sent = Some(Instant::now());
         if send(&sink, frame, send_timeout).await.is_err() {
             break None;
         }

@@ -1,0 +1,430 @@
+// Binary WebSocket frames of the homcull protocol (version 1), encoder and decoder.
+//
+// This mirrors `proto/src/frame.rs` exactly (read its module docs for the layout): a
+// frame is a sequence of little-endian u32 words, f32 travel as their IEEE-754 bits, a
+// 6-word header (magic, version, kind, seq, ack, payload_words) and a payload per kind.
+// The decoder accepts exactly what the Rust decoder accepts, checks in the same order and
+// reports the first failure as a `FrameError` whose `variant` and `fields` match the Rust
+// `FrameError` (the golden vectors in `proto/tests/golden/` and the rejection cases of
+// `proto/tests/reject.rs` are run against this file by `test/codec.test.mjs`).
+//
+// Frames are plain objects with the field names of the Rust structs:
+//   { kind: "hello", seq, ack: 0, object_count, info_json }
+//   { kind: "pose",  seq, ack: 0, want_full, position: [x,y,z], rotation: [x,y,z,w],
+//     fov_y_deg, viewport: [w,h], near, far }
+//   { kind: "full",  seq, ack, stats, ids }
+//   { kind: "delta", seq, ack, stats, added, removed }
+//   { kind: "error", seq, ack, code, code_name, message }
+// where stats = { objects, candidates, culled_by_frustum, culled_by_occlusion,
+// occluders_used, dropped_poses, gpu_us, total_us } and ID lists are plain arrays.
+
+/** First word of every frame: bytes 48 4D 43 4C ("HMCL") read as a little-endian u32. */
+export const MAGIC = 0x4c434d48;
+/** Version of the wire protocol this client speaks. */
+export const PROTOCOL_VERSION = 1;
+/** Words in the frame header. */
+export const HEADER_WORDS = 6;
+/** Bytes in the frame header. */
+export const HEADER_BYTES = HEADER_WORDS * 4;
+/** Largest frame the decoder accepts. */
+export const MAX_FRAME_BYTES = 16 << 20;
+/** Words in the stats block of Full and Delta frames. */
+export const STATS_WORDS = 8;
+/** Words in a Pose payload. */
+export const POSE_PAYLOAD_WORDS = 13;
+/** Bit of a Pose frame's flags asking for a full frame; the only bit defined. */
+export const POSE_FLAG_WANT_FULL = 1;
+
+/** Frame kinds (header word 2). */
+export const FrameKind = Object.freeze({ HELLO: 1, POSE: 2, FULL: 3, DELTA: 4, ERROR: 5 });
+const KIND_NAMES = ["", "hello", "pose", "full", "delta", "error"];
+
+/** Error codes carried by Error frames. */
+export const ErrorCode = Object.freeze({
+  MALFORMED_FRAME: 1,
+  UNSUPPORTED_VERSION: 2,
+  INVALID_POSE: 3,
+  OVERLOADED: 4,
+  INTERNAL: 5,
+  UNKNOWN_SCENE: 6,
+});
+const ERROR_CODE_NAMES = [
+  "",
+  "malformed_frame",
+  "unsupported_version",
+  "invalid_pose",
+  "overloaded",
+  "internal",
+  "unknown_scene",
+];
+
+/** Stats words in wire order. */
+export const STATS_FIELDS = Object.freeze([
+  "objects",
+  "candidates",
+  "culled_by_frustum",
+  "culled_by_occlusion",
+  "occluders_used",
+  "dropped_poses",
+  "gpu_us",
+  "total_us",
+]);
+
+/** The lowercase name of a frame kind code (`hello`, ...), or undefined. */
+export function kindName(code) {
+  return KIND_NAMES[code] || undefined;
+}
+
+/** The snake_case name of an error code (`malformed_frame`, ...), or undefined. */
+export function errorCodeName(code) {
+  return ERROR_CODE_NAMES[code] || undefined;
+}
+
+const hex = (n) => "0x" + (n >>> 0).toString(16).padStart(8, "0");
+
+const MESSAGES = {
+  TooShort: (f) => `frame too short: ${f.len} bytes, the header alone is ${HEADER_BYTES} bytes`,
+  TooLong: (f) => `frame too long: ${f.len} bytes, the limit is ${MAX_FRAME_BYTES} bytes`,
+  NotWordAligned: (f) => `frame length ${f.len} bytes is not a multiple of 4`,
+  BadMagic: (f) =>
+    `bad magic ${hex(f.found)}, expected ${hex(MAGIC)} (bytes 48 4d 43 4c, "HMCL")`,
+  UnsupportedVersion: (f) =>
+    `unsupported protocol version ${f.found}, this build supports version ${f.supported}`,
+  UnknownKind: (f) => `unknown frame kind ${f.kind} (expected 1 to 5)`,
+  NonZeroAck: (f) => `${f.kind} frame has ack ${f.ack}, it must be 0`,
+  PayloadLengthMismatch: (f) =>
+    `payload length mismatch: the header declares ${f.declared} payload words, the frame carries ${f.actual}`,
+  PayloadSize: (f) => `${f.kind} payload has ${f.actual} words, its fields need ${f.expected}`,
+  NotAscending: (f) =>
+    `${f.list} ids not strictly ascending: ${f.id} at index ${f.index} follows ${f.prev}`,
+  IdInBothLists: (f) => `id ${f.id} is both in the added and in the removed list of a delta`,
+  BadFlags: (f) => `pose flags 0x${f.flags.toString(16)} set bits other than bit 0 (want_full)`,
+  InvalidUtf8: (f) => `${f.field} is not valid UTF-8`,
+  NonZeroPadding: (f) => `padding after ${f.field} is not zero`,
+  UnknownErrorCode: (f) => `unknown error code ${f.code} (expected 1 to 6)`,
+  RemovedAbsent: (f) => `delta removes id ${f.id}, which is not in the visible set`,
+  AddedPresent: (f) => `delta adds id ${f.id}, which is already in the visible set`,
+};
+
+/**
+ * Why a frame did not decode (or a delta did not apply). `variant` is the name of the
+ * Rust `FrameError` variant, `fields` its fields (kinds as their lowercase names).
+ */
+export class FrameError extends Error {
+  constructor(variant, fields = {}) {
+    const msg = MESSAGES[variant];
+    super(msg ? msg(fields) : variant);
+    this.name = "FrameError";
+    this.variant = variant;
+    this.fields = fields;
+  }
+
+  /** The error code a server answers this error with. */
+  get code() {
+    return this.variant === "UnsupportedVersion"
+      ? ErrorCode.UNSUPPORTED_VERSION
+      : ErrorCode.MALFORMED_FRAME;
+  }
+}
+
+const utf8Decoder = new TextDecoder("utf-8", { fatal: true, ignoreBOM: true });
+const utf8Encoder = new TextEncoder();
+
+function asBytes(input) {
+  if (input instanceof Uint8Array) return input;
+  if (input instanceof ArrayBuffer) return new Uint8Array(input);
+  if (ArrayBuffer.isView(input)) return new Uint8Array(input.buffer, input.byteOffset, input.byteLength);
+  throw new TypeError("decodeFrame expects an ArrayBuffer or a typed array");
+}
+
+/**
+ * Parses one frame from an ArrayBuffer or typed array. Never reads past the input and
+ * never allocates more than the input's size justifies; throws `FrameError`.
+ */
+export function decodeFrame(input) {
+  const bytes = asBytes(input);
+  const len = bytes.byteLength;
+  if (len > MAX_FRAME_BYTES) throw new FrameError("TooLong", { len });
+  if (len < HEADER_BYTES) throw new FrameError("TooShort", { len });
+  if (len % 4 !== 0) throw new FrameError("NotWordAligned", { len });
+  const view = new DataView(bytes.buffer, bytes.byteOffset, len);
+  const word = (i) => view.getUint32(i * 4, true);
+  const magic = word(0);
+  const version = word(1);
+  const kindCode = word(2);
+  const seq = word(3);
+  const ack = word(4);
+  const declared = word(5);
+  if (magic !== MAGIC) throw new FrameError("BadMagic", { found: magic });
+  if (version !== PROTOCOL_VERSION) {
+    throw new FrameError("UnsupportedVersion", { found: version, supported: PROTOCOL_VERSION });
+  }
+  const kind = kindName(kindCode);
+  if (kind === undefined) throw new FrameError("UnknownKind", { kind: kindCode });
+  if ((kind === "hello" || kind === "pose") && ack !== 0) {
+    throw new FrameError("NonZeroAck", { kind, ack });
+  }
+  const words = len / 4 - HEADER_WORDS;
+  if (declared !== words) throw new FrameError("PayloadLengthMismatch", { declared, actual: words });
+
+  // The payload, consumed front to back (`pos` counts payload words consumed).
+  let pos = 0;
+  const sizeError = (more) => new FrameError("PayloadSize", { kind, expected: pos + more, actual: words });
+  const fixed = (n) => {
+    if (words - pos < n) throw sizeError(n);
+    const out = new Array(n);
+    for (let i = 0; i < n; i++) out[i] = word(HEADER_WORDS + pos + i);
+    pos += n;
+    return out;
+  };
+  // All remaining words, which must be exactly n; returns the word index where they start.
+  const tail = (n) => {
+    if (words - pos !== n) throw sizeError(n);
+    const start = HEADER_WORDS + pos;
+    pos = words;
+    return start;
+  };
+  const text = (field, byteLen) => {
+    const start = tail(Math.ceil(byteLen / 4)) * 4;
+    for (let i = start + byteLen; i < len; i++) {
+      if (bytes[i] !== 0) throw new FrameError("NonZeroPadding", { field });
+    }
+    try {
+      return utf8Decoder.decode(bytes.subarray(start, start + byteLen));
+    } catch {
+      throw new FrameError("InvalidUtf8", { field });
+    }
+  };
+  const ids = (list, start, count) => {
+    const out = new Array(count);
+    for (let i = 0; i < count; i++) {
+      const id = word(start + i);
+      if (i > 0 && id <= out[i - 1]) {
+        throw new FrameError("NotAscending", { list, index: i, prev: out[i - 1], id });
+      }
+      out[i] = id;
+    }
+    return out;
+  };
+  const stats = () => {
+    const w = fixed(STATS_WORDS);
+    const s = {};
+    STATS_FIELDS.forEach((name, i) => (s[name] = w[i]));
+    return s;
+  };
+
+  switch (kind) {
+    case "hello": {
+      const [object_count, byteLen] = fixed(2);
+      const info_json = text("hello JSON", byteLen);
+      return { kind, seq, ack, object_count, info_json };
+    }
+    case "pose": {
+      const w = fixed(POSE_PAYLOAD_WORDS);
+      tail(0);
+      const flags = w[0];
+      if ((flags & ~POSE_FLAG_WANT_FULL) !== 0) throw new FrameError("BadFlags", { flags });
+      const f = (i) => view.getFloat32((HEADER_WORDS + i) * 4, true);
+      return {
+        kind,
+        seq,
+        ack,
+        want_full: (flags & POSE_FLAG_WANT_FULL) !== 0,
+        position: [f(1), f(2), f(3)],
+        rotation: [f(4), f(5), f(6), f(7)],
+        fov_y_deg: f(8),
+        viewport: [w[9], w[10]],
+        near: f(11),
+        far: f(12),
+      };
+    }
+    case "full": {
+      const s = stats();
+      const [count] = fixed(1);
+      const start = tail(count);
+      return { kind, seq, ack, stats: s, ids: ids("full", start, count) };
+    }
+    case "delta": {
+      const s = stats();
+      const [addedCount, removedCount] = fixed(2);
+      const start = tail(addedCount + removedCount);
+      const added = ids("added", start, addedCount);
+      const removed = ids("removed", start + addedCount, removedCount);
+      checkDisjoint(added, removed);
+      return { kind, seq, ack, stats: s, added, removed };
+    }
+    case "error": {
+      const [code, byteLen] = fixed(2);
+      const name = errorCodeName(code);
+      if (name === undefined) throw new FrameError("UnknownErrorCode", { code });
+      const message = text("error message", byteLen);
+      return { kind, seq, ack, code, code_name: name, message };
+    }
+  }
+  /* c8 ignore next */
+  throw new Error("unreachable");
+}
+
+/** Throws IdInBothLists for the first ID common to two ascending lists. */
+export function checkDisjoint(a, b) {
+  let i = 0;
+  let j = 0;
+  while (i < a.length && j < b.length) {
+    if (a[i] === b[j]) throw new FrameError("IdInBothLists", { id: a[i] });
+    if (a[i] < b[j]) i++;
+    else j++;
+  }
+}
+
+/** Throws NotAscending if `ids` is not strictly ascending. */
+export function checkAscending(list, ids) {
+  for (let i = 1; i < ids.length; i++) {
+    if (ids[i] <= ids[i - 1]) {
+      throw new FrameError("NotAscending", { list, index: i, prev: ids[i - 1], id: ids[i] });
+    }
+  }
+}
+
+function u32(name, v) {
+  if (!Number.isInteger(v) || v < 0 || v > 0xffffffff) {
+    throw new TypeError(`${name} must be an integer in [0, 2^32), got ${v}`);
+  }
+  return v;
+}
+
+function kindCodeOf(kind) {
+  const code = KIND_NAMES.indexOf(kind);
+  if (code < 1) throw new TypeError(`unknown frame kind ${JSON.stringify(kind)}`);
+  return code;
+}
+
+/**
+ * The bytes of a frame (a Uint8Array). Like the Rust encoder it writes the fields as
+ * they are: ID lists that are not strictly ascending give a frame that `decodeFrame`
+ * rejects (see `validateFrame`). Throws TypeError for fields that are not numbers of
+ * the right range or strings.
+ */
+export function encodeFrame(frame) {
+  const kindCode = kindCodeOf(frame.kind);
+  const words = [];
+  let textBytes = null;
+  switch (frame.kind) {
+    case "hello":
+      textBytes = utf8Encoder.encode(String(frame.info_json));
+      words.push(u32("object_count", frame.object_count), textBytes.length);
+      break;
+    case "pose":
+      words.push(frame.want_full ? POSE_FLAG_WANT_FULL : 0);
+      // The floats are written below through a DataView; reserve their words.
+      for (let i = 0; i < 8; i++) words.push(0);
+      words.push(u32("viewport[0]", frame.viewport[0]), u32("viewport[1]", frame.viewport[1]));
+      words.push(0, 0);
+      break;
+    case "full":
+      pushStats(words, frame.stats);
+      words.push(frame.ids.length);
+      for (const id of frame.ids) words.push(u32("id", id));
+      break;
+    case "delta":
+      pushStats(words, frame.stats);
+      words.push(frame.added.length, frame.removed.length);
+      for (const id of frame.added) words.push(u32("id", id));
+      for (const id of frame.removed) words.push(u32("id", id));
+      break;
+    case "error":
+      textBytes = utf8Encoder.encode(String(frame.message));
+      words.push(u32("code", frame.code), textBytes.length);
+      break;
+  }
+  const textWords = textBytes ? Math.ceil(textBytes.length / 4) : 0;
+  const payloadWords = words.length + textWords;
+  const out = new Uint8Array((HEADER_WORDS + payloadWords) * 4);
+  const view = new DataView(out.buffer);
+  const ack = frame.kind === "hello" || frame.kind === "pose" ? 0 : u32("ack", frame.ack ?? 0);
+  const header = [MAGIC, PROTOCOL_VERSION, kindCode, u32("seq", frame.seq), ack, payloadWords];
+  header.forEach((w, i) => view.setUint32(i * 4, w, true));
+  words.forEach((w, i) => view.setUint32((HEADER_WORDS + i) * 4, w, true));
+  if (frame.kind === "pose") {
+    const floats = [...frame.position, ...frame.rotation, frame.fov_y_deg];
+    if (frame.position.length !== 3 || frame.rotation.length !== 4) {
+      throw new TypeError("pose position needs 3 numbers and rotation 4");
+    }
+    floats.forEach((v, i) => view.setFloat32((HEADER_WORDS + 1 + i) * 4, num("pose field", v), true));
+    view.setFloat32((HEADER_WORDS + 11) * 4, num("near", frame.near), true);
+    view.setFloat32((HEADER_WORDS + 12) * 4, num("far", frame.far), true);
+  }
+  if (textBytes) out.set(textBytes, (HEADER_WORDS + words.length) * 4);
+  return out;
+}
+
+function num(name, v) {
+  if (typeof v !== "number") throw new TypeError(`${name} must be a number, got ${typeof v}`);
+  return v;
+}
+
+function pushStats(words, stats = {}) {
+  for (const name of STATS_FIELDS) words.push(u32(`stats.${name}`, stats[name] ?? 0));
+}
+
+/**
+ * Checks what `encodeFrame` does not: strictly ascending (and, for a delta, disjoint)
+ * ID lists and the size limit. Throws the `FrameError` that decoding would give.
+ */
+export function validateFrame(frame) {
+  let payload;
+  switch (frame.kind) {
+    case "hello":
+      payload = 2 + Math.ceil(utf8Encoder.encode(frame.info_json).length / 4);
+      break;
+    case "pose":
+      payload = POSE_PAYLOAD_WORDS;
+      break;
+    case "full":
+      payload = STATS_WORDS + 1 + frame.ids.length;
+      break;
+    case "delta":
+      payload = STATS_WORDS + 2 + frame.added.length + frame.removed.length;
+      break;
+    case "error":
+      payload = 2 + Math.ceil(utf8Encoder.encode(frame.message).length / 4);
+      break;
+    default:
+      kindCodeOf(frame.kind);
+  }
+  const len = (HEADER_WORDS + payload) * 4;
+  if (len > MAX_FRAME_BYTES) throw new FrameError("TooLong", { len });
+  if (frame.kind === "full") checkAscending("full", frame.ids);
+  if (frame.kind === "delta") {
+    checkAscending("added", frame.added);
+    checkAscending("removed", frame.removed);
+    checkDisjoint(frame.added, frame.removed);
+  }
+}
+
+/**
+ * A Pose frame's bytes for `pose` ({position, rotation, fov_y_deg, viewport, near, far},
+ * the defaults of the REST `Pose` filling in what is missing). The binary frame carries
+ * only quaternions: a pose with `look_at` or `up` throws (like `PoseFrame::from_pose`).
+ */
+export function encodePose(seq, pose, wantFull = false) {
+  return encodeFrame(poseFrame(seq, pose, wantFull));
+}
+
+/** The Pose frame object for `pose` (see `encodePose`). */
+export function poseFrame(seq, pose, wantFull = false) {
+  if (pose.look_at !== undefined || pose.up !== undefined) {
+    throw new TypeError("binary pose frames carry only quaternions: convert look_at to a rotation");
+  }
+  return {
+    kind: "pose",
+    seq,
+    ack: 0,
+    want_full: Boolean(wantFull),
+    position: pose.position,
+    rotation: pose.rotation ?? [0, 0, 0, 1],
+    fov_y_deg: pose.fov_y_deg ?? 60,
+    viewport: pose.viewport ?? [960, 540],
+    near: pose.near ?? 0.1,
+    far: pose.far ?? 5000,
+  };
+}

@@ -1,0 +1,341 @@
+// The JS codec against the golden vectors shared with the Rust codec
+// (proto/tests/golden/*.hex and frames.json) and the rejection cases of
+// proto/tests/reject.rs.
+
+import { test } from "node:test";
+import assert from "node:assert/strict";
+import { readFileSync, readdirSync } from "node:fs";
+import { fileURLToPath } from "node:url";
+import { dirname, join } from "node:path";
+
+import {
+  ErrorCode,
+  FrameError,
+  HEADER_BYTES,
+  MAGIC,
+  MAX_FRAME_BYTES,
+  PROTOCOL_VERSION,
+  decodeFrame,
+  encodeFrame,
+  encodePose,
+  validateFrame,
+} from "../src/codec.js";
+import { applyDelta } from "../src/visible.js";
+
+const golden = join(dirname(fileURLToPath(import.meta.url)), "..", "..", "proto", "tests", "golden");
+const manifest = JSON.parse(readFileSync(join(golden, "frames.json"), "utf8"));
+
+function readHex(file) {
+  const text = readFileSync(join(golden, file), "utf8");
+  const lines = text.trim().split("\n");
+  for (const line of lines) assert.match(line, /^[0-9a-f]{8}$/, `${file}: line ${JSON.stringify(line)}`);
+  return Uint8Array.from(lines.join("").match(/../g), (h) => parseInt(h, 16));
+}
+
+/** The fields of a frames.json entry that a decoded frame must have. */
+function expectedFrame(entry) {
+  const common = { kind: entry.kind, seq: entry.seq, ack: entry.ack };
+  switch (entry.kind) {
+    case "hello":
+      return { ...common, object_count: entry.object_count, info_json: entry.info_json };
+    case "pose":
+      return {
+        ...common,
+        want_full: entry.want_full,
+        position: entry.position,
+        rotation: entry.rotation,
+        fov_y_deg: entry.fov_y_deg,
+        viewport: entry.viewport,
+        near: entry.near,
+        far: entry.far,
+      };
+    case "full":
+      return { ...common, stats: entry.stats, ids: entry.ids };
+    case "delta":
+      return { ...common, stats: entry.stats, added: entry.added, removed: entry.removed };
+    case "error":
+      return { ...common, code: entry.code, code_name: entry.code_name, message: entry.message };
+  }
+  throw new Error(`unknown kind ${entry.kind}`);
+}
+
+test("every golden file is listed in frames.json", () => {
+  const files = readdirSync(golden).filter((f) => f.endsWith(".hex")).sort();
+  assert.deepEqual(manifest.frames.map((f) => f.file).sort(), files);
+  assert.ok(files.length >= 7);
+});
+
+for (const entry of manifest.frames) {
+  test(`golden ${entry.file}: decodes to the listed fields`, () => {
+    const bytes = readHex(entry.file);
+    assert.equal(bytes.length, entry.byte_length);
+    assert.equal(bytes.length / 4 - 6, entry.payload_words);
+    const view = new DataView(bytes.buffer);
+    assert.equal(view.getUint32(8, true), entry.kind_code);
+    const frame = decodeFrame(bytes);
+    const want = expectedFrame(entry);
+    assert.deepEqual(frame, want);
+    // Also from an ArrayBuffer and from a view into a larger buffer.
+    assert.deepEqual(decodeFrame(bytes.slice().buffer), want);
+    const padded = new Uint8Array(bytes.length + 8);
+    padded.set(bytes, 4);
+    assert.deepEqual(decodeFrame(padded.subarray(4, 4 + bytes.length)), want);
+    for (const key of ["info_json", "message"]) {
+      if (entry[`${key}_byte_length`] !== undefined) {
+        assert.equal(new TextEncoder().encode(frame[key]).length, entry[`${key}_byte_length`]);
+      }
+    }
+  });
+
+  test(`golden ${entry.file}: encoding the fields gives the same bytes`, () => {
+    const bytes = readHex(entry.file);
+    const frame = decodeFrame(bytes);
+    assert.deepEqual(encodeFrame(frame), bytes);
+    validateFrame(frame);
+    if (entry.kind === "pose") {
+      const pose = {
+        position: entry.position,
+        rotation: entry.rotation,
+        fov_y_deg: entry.fov_y_deg,
+        viewport: entry.viewport,
+        near: entry.near,
+        far: entry.far,
+      };
+      assert.deepEqual(encodePose(entry.seq, pose, entry.want_full), bytes);
+    }
+  });
+
+  if (entry.base !== undefined) {
+    test(`golden ${entry.file}: applied to ${entry.base} gives visible_after`, () => {
+      const base = decodeFrame(readHex(entry.base));
+      const delta = decodeFrame(readHex(entry.file));
+      assert.deepEqual(applyDelta(base.ids, delta.added, delta.removed), entry.visible_after);
+    });
+  }
+}
+
+// --- rejection: the cases of proto/tests/reject.rs, with the same expected errors ---------
+
+function bytes(words) {
+  const out = new Uint8Array(words.length * 4);
+  const v = new DataView(out.buffer);
+  words.forEach((w, i) => v.setUint32(i * 4, w >>> 0, true));
+  return out;
+}
+
+function frame(kind, seq, ack, payload) {
+  return bytes([MAGIC, PROTOCOL_VERSION, kind, seq, ack, payload.length, ...payload]);
+}
+
+const stats = () => [10, 9, 1, 2, 3, 0, 100, 200];
+const full = (ids) => frame(3, 1, 1, [...stats(), ids.length, ...ids]);
+const delta = (added, removed) => frame(4, 1, 1, [...stats(), added.length, removed.length, ...added, ...removed]);
+
+function textPayload(first, text, pad) {
+  const b = [...(typeof text === "string" ? new TextEncoder().encode(text) : text)];
+  const n = b.length;
+  while (b.length % 4) b.push(pad);
+  const words = [];
+  for (let i = 0; i < b.length; i += 4) words.push((b[i] | (b[i + 1] << 8) | (b[i + 2] << 16) | (b[i + 3] << 24)) >>> 0);
+  return [first, n, ...words];
+}
+
+const f32bits = (x) => {
+  const v = new DataView(new ArrayBuffer(4));
+  v.setFloat32(0, x, true);
+  return v.getUint32(0, true);
+};
+
+function pose(flags) {
+  return frame(2, 7, 0, [flags, ...[0, 1, 2, 0, 0, 0, 1, 60].map(f32bits), 960, 540, ...[0.1, 100].map(f32bits)]);
+}
+
+const U32_MAX = 0xffffffff;
+
+function cases() {
+  const long = new Uint8Array(MAX_FRAME_BYTES + 4);
+  long.set(bytes([MAGIC]));
+  const unaligned = new Uint8Array([...full([1, 2]), 0]);
+  const poseWithAck = pose(0);
+  poseWithAck.set(bytes([3]), 16);
+  return [
+    ["empty", new Uint8Array(0), "TooShort", { len: 0 }],
+    ["header minus a word", frame(3, 0, 0, []).slice(0, 20), "TooShort", { len: 20 }],
+    ["over the limit, checked first", long, "TooLong", { len: MAX_FRAME_BYTES + 4 }],
+    ["over the limit by a byte", new Uint8Array(MAX_FRAME_BYTES + 1).fill(0xff), "TooLong", { len: MAX_FRAME_BYTES + 1 }],
+    ["a stray byte", unaligned, "NotWordAligned", { len: 69 }],
+    ["big-endian magic", bytes([0x484d434c, 1, 3, 0, 0, 0]), "BadMagic", { found: 0x484d434c }],
+    ["zero magic", new Uint8Array(24), "BadMagic", { found: 0 }],
+    ["version 2", bytes([MAGIC, 2, 3, 0, 0, 0]), "UnsupportedVersion", { found: 2, supported: 1 }],
+    ["version 0", bytes([MAGIC, 0, 3, 0, 0, 0]), "UnsupportedVersion", { found: 0, supported: 1 }],
+    ["kind 0", frame(0, 0, 0, []), "UnknownKind", { kind: 0 }],
+    ["kind 6", frame(6, 0, 0, []), "UnknownKind", { kind: 6 }],
+    ["hello with an ack", frame(1, 1, 9, textPayload(5, "{}", 0)), "NonZeroAck", { kind: "hello", ack: 9 }],
+    ["pose with an ack", poseWithAck, "NonZeroAck", { kind: "pose", ack: 3 }],
+    [
+      "declared one word more than present",
+      bytes([MAGIC, 1, 3, 0, 0, 10, 0, 0, 0, 0, 0, 0, 0, 0, 0]),
+      "PayloadLengthMismatch",
+      { declared: 10, actual: 9 },
+    ],
+    ["declared u32::MAX words", bytes([MAGIC, 1, 3, 0, 0, U32_MAX]), "PayloadLengthMismatch", { declared: U32_MAX, actual: 0 }],
+    ["pose one word short", frame(2, 0, 0, new Array(12).fill(0)), "PayloadSize", { kind: "pose", expected: 13, actual: 12 }],
+    ["pose one word long", frame(2, 0, 0, new Array(14).fill(0)), "PayloadSize", { kind: "pose", expected: 13, actual: 14 }],
+    ["full without its count", frame(3, 0, 0, stats()), "PayloadSize", { kind: "full", expected: 9, actual: 8 }],
+    ["full count larger than its ids", frame(3, 0, 0, [...stats(), 5, 1, 2, 3]), "PayloadSize", { kind: "full", expected: 14, actual: 12 }],
+    [
+      "full count u32::MAX (must not allocate it)",
+      frame(3, 0, 0, [...stats(), U32_MAX, 1]),
+      "PayloadSize",
+      { kind: "full", expected: 9 + U32_MAX, actual: 10 },
+    ],
+    [
+      "delta counts whose sum overflows u32",
+      frame(4, 0, 0, [...stats(), U32_MAX, 2, 1]),
+      "PayloadSize",
+      { kind: "delta", expected: 10 + U32_MAX + 2, actual: 11 },
+    ],
+    ["delta without its counts", frame(4, 0, 0, new Array(9).fill(0)), "PayloadSize", { kind: "delta", expected: 10, actual: 9 }],
+    [
+      "hello JSON longer than the payload",
+      frame(1, 0, 0, [3, U32_MAX, 0x20207b7b]),
+      "PayloadSize",
+      { kind: "hello", expected: 2 + Math.ceil(U32_MAX / 4), actual: 3 },
+    ],
+    ["hello with a trailing word", frame(1, 0, 0, [...textPayload(3, "{}", 0), 0]), "PayloadSize", { kind: "hello", expected: 3, actual: 4 }],
+    ["hello without its length", frame(1, 0, 0, [3]), "PayloadSize", { kind: "hello", expected: 2, actual: 1 }],
+    [
+      "error message shorter than its length",
+      frame(5, 0, 0, [1, 9, 0x61616161, 0x61616161]),
+      "PayloadSize",
+      { kind: "error", expected: 5, actual: 4 },
+    ],
+    ["full ids repeated", full([1, 4, 4]), "NotAscending", { list: "full", index: 2, prev: 4, id: 4 }],
+    ["full ids descending", full([9, 2]), "NotAscending", { list: "full", index: 1, prev: 9, id: 2 }],
+    ["delta added descending", delta([1, 7, 3], []), "NotAscending", { list: "added", index: 2, prev: 7, id: 3 }],
+    ["delta removed repeated", delta([], [0, 0]), "NotAscending", { list: "removed", index: 1, prev: 0, id: 0 }],
+    ["delta id in both lists", delta([1, 2, 8], [0, 8]), "IdInBothLists", { id: 8 }],
+    ["pose flag bit 1", pose(2), "BadFlags", { flags: 2 }],
+    ["pose flag bit 31", pose(0x80000001), "BadFlags", { flags: 0x80000001 }],
+    [
+      "hello JSON not UTF-8",
+      frame(1, 0, 0, textPayload(3, new Uint8Array([0x7b, 0x22, 0x61, 0x22, 0x3a, 0x22, 0xff, 0x22, 0x7d]), 0)),
+      "InvalidUtf8",
+      { field: "hello JSON" },
+    ],
+    [
+      "error message with a truncated UTF-8 sequence",
+      frame(5, 0, 0, textPayload(5, new Uint8Array([0x64, 0x65, 0x67, 0x20, 0xc2]), 0)),
+      "InvalidUtf8",
+      { field: "error message" },
+    ],
+    ["hello padding not zero", frame(1, 0, 0, textPayload(3, "{}", 0x20)), "NonZeroPadding", { field: "hello JSON" }],
+    ["error padding not zero", frame(5, 0, 0, textPayload(4, "busy!", 1)), "NonZeroPadding", { field: "error message" }],
+    ["error code 0", frame(5, 0, 0, textPayload(0, "x", 0)), "UnknownErrorCode", { code: 0 }],
+    ["error code 7", frame(5, 0, 0, textPayload(7, "x", 0)), "UnknownErrorCode", { code: 7 }],
+    [
+      "delta removed repeated after a non-empty added list",
+      delta([5], [6, 6]),
+      "NotAscending",
+      { list: "removed", index: 1, prev: 6, id: 6 },
+    ],
+    // Beyond reject.rs: UTF-8 the Rust decoder also refuses.
+    ["surrogate in UTF-8 (CESU)", frame(5, 0, 0, textPayload(1, new Uint8Array([0xed, 0xa0, 0x80]), 0)), "InvalidUtf8", { field: "error message" }],
+    ["overlong UTF-8", frame(5, 0, 0, textPayload(1, new Uint8Array([0xc0, 0xaf]), 0)), "InvalidUtf8", { field: "error message" }],
+  ];
+}
+
+test("every crafted input is rejected as the Rust decoder rejects it", () => {
+  const seen = new Set();
+  for (const [what, input, variant, fields] of cases()) {
+    assert.throws(
+      () => decodeFrame(input),
+      (e) => {
+        assert.ok(e instanceof FrameError, `${what}: ${e}`);
+        assert.equal(e.variant, variant, `${what}: ${e.message}`);
+        assert.deepEqual(e.fields, fields, what);
+        assert.ok(e.message.length > 0);
+        assert.equal(e.code, variant === "UnsupportedVersion" ? ErrorCode.UNSUPPORTED_VERSION : ErrorCode.MALFORMED_FRAME);
+        return true;
+      },
+      what,
+    );
+    seen.add(variant);
+  }
+  // Every decoder error variant is exercised (RemovedAbsent/AddedPresent: visible.test.mjs).
+  assert.equal(seen.size, 15);
+});
+
+test("error messages read like the Rust ones", () => {
+  assert.match(new FrameError("BadMagic", { found: 0xdeadbeef }).message, /0xdeadbeef.*0x4c434d48/);
+  assert.match(new FrameError("TooLong", { len: 1 << 30 }).message, new RegExp(String(MAX_FRAME_BYTES)));
+  assert.match(new FrameError("TooShort", { len: 3 }).message, new RegExp(String(HEADER_BYTES)));
+  assert.equal(new FrameError("BadFlags", { flags: 0x80000001 }).message, "pose flags 0x80000001 set bits other than bit 0 (want_full)");
+  assert.equal(
+    new FrameError("UnsupportedVersion", { found: 7, supported: 1 }).message,
+    "unsupported protocol version 7, this build supports version 1",
+  );
+});
+
+test("truncations of valid frames are rejected", () => {
+  const valid = [
+    full([1, 2, 3]),
+    delta([1, 4], [2]),
+    pose(1),
+    frame(1, 1, 0, textPayload(3, '{"é":1}', 0)),
+    frame(5, 1, 0, textPayload(4, "overloaded", 0)),
+    ...manifest.frames.map((f) => readHex(f.file)),
+  ];
+  for (const f of valid) {
+    decodeFrame(f);
+    for (let cut = 0; cut < f.length; cut++) {
+      assert.throws(() => decodeFrame(f.subarray(0, cut)), FrameError, `cut at ${cut}`);
+    }
+  }
+});
+
+test("encode then decode round-trips, and validate agrees with decode", () => {
+  const frames = [
+    { kind: "hello", seq: 0, ack: 0, object_count: 3, info_json: '{"a":"ü€😀"}' },
+    { kind: "full", seq: 5, ack: 4, stats: { objects: 3, candidates: 2, culled_by_frustum: 1, culled_by_occlusion: 0, occluders_used: 1, dropped_poses: 0, gpu_us: 7, total_us: 9 }, ids: [0, 2, 0xffffffff] },
+    { kind: "delta", seq: 6, ack: 9, stats: { objects: 3, candidates: 0, culled_by_frustum: 3, culled_by_occlusion: 0, occluders_used: 0, dropped_poses: 2, gpu_us: 0, total_us: 1 }, added: [], removed: [0, 2] },
+    { kind: "error", seq: 7, ack: 0, code: 4, code_name: "overloaded", message: "busy" },
+    { kind: "pose", seq: 1, ack: 0, want_full: false, position: [1.5, -0, 3], rotation: [0, 0, 0, 1], fov_y_deg: 75, viewport: [1, 8192], near: 0.5, far: 100 },
+  ];
+  for (const f of frames) {
+    validateFrame(f);
+    const bytes = encodeFrame(f);
+    assert.deepEqual(decodeFrame(bytes), f);
+    assert.deepEqual(encodeFrame(decodeFrame(bytes)), bytes);
+  }
+  const badFull = { kind: "full", seq: 0, ack: 0, stats: {}, ids: [2, 1] };
+  assert.throws(() => validateFrame(badFull), { variant: "NotAscending" });
+  assert.throws(() => decodeFrame(encodeFrame(badFull)), { variant: "NotAscending" });
+  const badDelta = { kind: "delta", seq: 0, ack: 0, stats: {}, added: [3], removed: [3] };
+  assert.throws(() => validateFrame(badDelta), { variant: "IdInBothLists", fields: { id: 3 } });
+  assert.throws(() => decodeFrame(encodeFrame(badDelta)), { variant: "IdInBothLists" });
+  const huge = { kind: "full", seq: 0, ack: 0, stats: {}, ids: Array.from({ length: MAX_FRAME_BYTES / 4 }, (_, i) => i) };
+  assert.throws(() => validateFrame(huge), { variant: "TooLong" });
+});
+
+test("encoder refuses fields it cannot write", () => {
+  assert.throws(() => encodeFrame({ kind: "nope", seq: 0 }), TypeError);
+  assert.throws(() => encodeFrame({ kind: "full", seq: -1, ack: 0, stats: {}, ids: [] }), TypeError);
+  assert.throws(() => encodeFrame({ kind: "full", seq: 0, ack: 0, stats: {}, ids: [1.5] }), TypeError);
+  assert.throws(() => encodeFrame({ kind: "error", seq: 0, ack: 0, code: 2 ** 32, message: "" }), TypeError);
+  assert.throws(() => encodePose(1, { position: [0, 0, 0], look_at: [1, 0, 0] }), TypeError);
+  // Defaults of the REST Pose.
+  const f = decodeFrame(encodePose(3, { position: [1, 2, 3] }));
+  assert.deepEqual(f, {
+    kind: "pose",
+    seq: 3,
+    ack: 0,
+    want_full: false,
+    position: [1, 2, 3],
+    rotation: [0, 0, 0, 1],
+    fov_y_deg: 60,
+    viewport: [960, 540],
+    near: Math.fround(0.1),
+    far: 5000,
+  });
+});
