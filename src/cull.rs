@@ -169,7 +169,11 @@ pub trait Culler {
     ) -> Result<Vec<PoseResult>, CullError> {
         s.validate()?;
         let start = Instant::now();
-        let plans: Vec<PosePlan> = cams.iter().map(|c| plan(prep, c, s)).collect();
+        // Planning is independent per pose: spread it over the CPU cores.
+        let plans: Vec<PosePlan> = {
+            use rayon::prelude::*;
+            cams.par_iter().map(|c| plan(prep, c, s)).collect()
+        };
         let mut masks = Vec::with_capacity(plans.len());
         let mut image_ms = 0.0;
         if s.options.method != Method::Frustum {

@@ -13,7 +13,9 @@ use wgpu::util::DeviceExt;
 
 use super::oracle::OraclePass;
 use super::pyramid::{LevelParams, PyramidPass};
-use super::raster::{DEPTH_FORMAT, ID_FORMAT, OCCLUSION_FORMAT, RasterKind, RasterPass};
+use super::raster::{
+    DEPTH_FORMAT, DrawList, ID_FORMAT, OCCLUSION_FORMAT, RasterKind, RasterPass, indirect_draws,
+};
 use super::scene_buffers::SceneBuffers;
 use super::test_pass::{GroupParams, TestConfig, TestPass};
 use super::{GpuContext, GpuError, UNIFORM_SLOT, slotted};
@@ -146,14 +148,13 @@ fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
 }
 
 /// Draw calls `(first_index, index_count, object_id)` for the given objects.
-fn object_draws<'a>(
-    ranges: &'a [(u32, u32)],
-    ids: &'a [u32],
-) -> impl Iterator<Item = (u32, u32, u32)> + 'a {
-    ids.iter().map(|&id| {
-        let (first, count) = ranges[id as usize];
-        (first, count, id)
-    })
+fn object_draws(ranges: &[(u32, u32)], ids: &[u32]) -> Vec<(u32, u32, u32)> {
+    ids.iter()
+        .map(|&id| {
+            let (first, count) = ranges[id as usize];
+            (first, count, id)
+        })
+        .collect()
 }
 
 impl GpuBackend {
@@ -337,6 +338,28 @@ impl GpuBackend {
                 size: wgpu::BufferSize::new(16),
             })
         }
+        // Objects each pose rasterizes: all candidates for the oracle, occluders otherwise.
+        let drawn = |p: &PosePlan| -> Vec<(u32, u32, u32)> {
+            object_draws(
+                &self.draws,
+                if exact {
+                    &p.candidates
+                } else {
+                    &p.occluders.ids
+                },
+            )
+        };
+        let indirect = self
+            .ctx
+            .indirect_draws
+            .then(|| indirect_draws(device, plans.iter().map(drawn)));
+        let draw_list = |p: u32| match &indirect {
+            Some((buffer, ranges)) => {
+                let (first, count) = ranges[p as usize];
+                DrawList::Indirect(buffer, first, count)
+            }
+            None => DrawList::Direct(drawn(&plans[p as usize])),
+        };
         let mut encoder = device.create_command_encoder(&Default::default());
 
         if exact {
@@ -361,7 +384,6 @@ impl GpuBackend {
             });
             for (g, &(a, b)) in groups.iter().enumerate() {
                 for p in a..b {
-                    let draws = object_draws(&self.draws, &plans[p as usize].candidates);
                     self.raster.record(
                         &mut encoder,
                         RasterKind::ObjectIds,
@@ -370,7 +392,7 @@ impl GpuBackend {
                         &pose_bg,
                         p,
                         &self.scene,
-                        draws,
+                        draw_list(p),
                     );
                 }
                 self.oracle.record(&mut encoder, &bg, g as u32, w, h, b - a);
@@ -474,7 +496,6 @@ impl GpuBackend {
             });
             for (g, &(a, b)) in groups.iter().enumerate() {
                 for p in a..b {
-                    let draws = object_draws(&self.draws, &plans[p as usize].occluders.ids);
                     self.raster.record(
                         &mut encoder,
                         RasterKind::OccluderDepth,
@@ -483,7 +504,7 @@ impl GpuBackend {
                         &pose_bg,
                         p,
                         &self.scene,
-                        draws,
+                        draw_list(p),
                     );
                 }
                 self.pyramid.record(&mut encoder, &pyr_bg, &t.layout, b - a);

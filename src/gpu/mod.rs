@@ -37,6 +37,10 @@ pub struct GpuContext {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
+    /// All of a pose's draws go out as one `multi_draw_indexed_indirect` (needs
+    /// indirect execution and a non-zero first instance in indirect draws); without
+    /// it, one draw call per object.
+    pub indirect_draws: bool,
 }
 
 impl GpuContext {
@@ -61,9 +65,23 @@ impl GpuContext {
                 info.name, limits.max_storage_buffers_per_shader_stage
             )));
         }
+        let indirect_draws = adapter
+            .features()
+            .contains(wgpu::Features::INDIRECT_FIRST_INSTANCE)
+            && adapter
+                .get_downlevel_capabilities()
+                .flags
+                .contains(wgpu::DownlevelFlags::INDIRECT_EXECUTION)
+            && std::env::var_os("HOMCULL_NO_INDIRECT").is_none();
+        let required_features = if indirect_draws {
+            wgpu::Features::INDIRECT_FIRST_INSTANCE
+        } else {
+            wgpu::Features::empty()
+        };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("homcull"),
             required_limits: limits,
+            required_features,
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device(e.to_string()))?;
@@ -71,6 +89,7 @@ impl GpuContext {
             device,
             queue,
             info,
+            indirect_draws,
         })
     }
 

@@ -86,8 +86,7 @@ impl RasterPass {
         }
     }
 
-    /// Records one pose's raster into `target` (one array layer). `draws` are
-    /// `(first_index, index_count, object_id)`.
+    /// Records one pose's raster into `target` (one array layer).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -98,7 +97,7 @@ impl RasterPass {
         poses: &wgpu::BindGroup,
         pose_index: u32,
         scene: &super::scene_buffers::SceneBuffers,
-        draws: impl Iterator<Item = (u32, u32, u32)>,
+        draws: DrawList<'_>,
     ) {
         let clear = match kind {
             RasterKind::OccluderDepth => wgpu::Color::TRANSPARENT,
@@ -139,10 +138,65 @@ impl RasterPass {
         pass.set_bind_group(0, poses, &[(pose_index as u64 * UNIFORM_SLOT) as u32]);
         pass.set_vertex_buffer(0, scene.vertices.slice(..));
         pass.set_index_buffer(scene.indices.slice(..), wgpu::IndexFormat::Uint32);
-        for (first, count, id) in draws {
-            if count > 0 {
-                pass.draw_indexed(first..first + count, 0, id..id + 1);
+        match draws {
+            DrawList::Direct(list) => {
+                for (first, count, id) in list {
+                    if count > 0 {
+                        pass.draw_indexed(first..first + count, 0, id..id + 1);
+                    }
+                }
+            }
+            DrawList::Indirect(buffer, first, count) => {
+                let stride = std::mem::size_of::<wgpu::util::DrawIndexedIndirectArgs>() as u64;
+                pass.multi_draw_indexed_indirect(buffer, first as u64 * stride, count);
             }
         }
     }
+}
+
+/// One pose's object draws: `(first_index, index_count, object_id)` each, either
+/// recorded one call per object or read from an indirect buffer (`first` and `count`
+/// in draws) in one call.
+pub enum DrawList<'a> {
+    Direct(Vec<(u32, u32, u32)>),
+    Indirect(&'a wgpu::Buffer, u32, u32),
+}
+
+/// The indirect arguments of every pose's draws in one buffer, and each pose's
+/// `(first, count)` in it.
+pub fn indirect_draws(
+    device: &wgpu::Device,
+    per_pose: impl Iterator<Item = Vec<(u32, u32, u32)>>,
+) -> (wgpu::Buffer, Vec<(u32, u32)>) {
+    use wgpu::util::DeviceExt;
+    let mut args: Vec<u8> = Vec::new();
+    let mut ranges = Vec::new();
+    let mut n = 0u32;
+    for draws in per_pose {
+        let first = n;
+        for (first_index, index_count, id) in draws.into_iter().filter(|d| d.1 > 0) {
+            let a = wgpu::util::DrawIndexedIndirectArgs {
+                index_count,
+                instance_count: 1,
+                first_index,
+                base_vertex: 0,
+                first_instance: id,
+            };
+            args.extend_from_slice(a.as_bytes());
+            n += 1;
+        }
+        ranges.push((first, n - first));
+    }
+    if args.is_empty() {
+        args.resize(
+            std::mem::size_of::<wgpu::util::DrawIndexedIndirectArgs>(),
+            0,
+        );
+    }
+    let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("indirect draws"),
+        contents: &args,
+        usage: wgpu::BufferUsages::INDIRECT,
+    });
+    (buffer, ranges)
 }

@@ -26,6 +26,14 @@ pub enum GlbSource {
     File(std::path::PathBuf),
 }
 
+/// Where a scene came from: its id, name and GLB.
+struct Origin {
+    id: String,
+    name: String,
+    glb: GlbSource,
+    glb_bytes: u64,
+}
+
 /// One resident scene.
 pub struct SceneEntry {
     pub info: SceneInfo,
@@ -38,11 +46,8 @@ pub struct SceneEntry {
 impl SceneEntry {
     /// Prepares a scene (occluders from `cache` when it fits) and uploads it to the GPU.
     fn build(
-        id: &str,
-        name: &str,
+        origin: Origin,
         scene: Scene,
-        glb: GlbSource,
-        glb_bytes: u64,
         params: OccluderParams,
         cache: Option<OccluderCache>,
         gpu: Option<Arc<GpuContext>>,
@@ -65,9 +70,15 @@ impl SceneEntry {
                 occluder: occluder_set.contains(&o.id),
             })
             .collect();
+        let Origin {
+            id,
+            name,
+            glb,
+            glb_bytes,
+        } = origin;
         let info = SceneInfo {
-            id: id.to_string(),
-            name: name.to_string(),
+            id,
+            name,
             objects: scene.objects.len() as u32,
             triangles: scene.triangle_count().min(u32::MAX as u64) as u32,
             occluders: occluders.ids.len() as u32,
@@ -208,12 +219,15 @@ impl AppState {
         let scene = demo_city();
         let glb = Arc::new(write_glb(&scene));
         let len = glb.len() as u64;
+        let origin = Origin {
+            id: "demo".into(),
+            name: "demo city".into(),
+            glb: GlbSource::Memory(glb),
+            glb_bytes: len,
+        };
         let entry = SceneEntry::build(
-            "demo",
-            "demo city",
+            origin,
             scene,
-            GlbSource::Memory(glb),
-            len,
             self.occluder_params(),
             None,
             self.gpu.clone(),
@@ -247,12 +261,15 @@ impl AppState {
         let t = std::time::Instant::now();
         let cache = self.store.read_occluders(&meta.id);
         let cached = cache.is_some();
-        let entry = SceneEntry::build(
-            &meta.id,
-            &meta.name,
-            scene,
-            GlbSource::File(self.store.glb_path(&meta.id)),
+        let origin = Origin {
+            id: meta.id.clone(),
+            name: meta.name.clone(),
+            glb: GlbSource::File(self.store.glb_path(&meta.id)),
             glb_bytes,
+        };
+        let entry = SceneEntry::build(
+            origin,
+            scene,
             self.occluder_params(),
             cache,
             self.gpu.clone(),

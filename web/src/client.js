@@ -119,6 +119,7 @@ export class HomcullClient extends EventTarget {
    * @param {object} [opts.backoff] {initialMs, maxMs, factor, jitter}
    * @param {boolean} [opts.reconnect] reconnect after a lost connection (default true)
    * @param {number} [opts.rttWindow] RTT samples kept for the percentiles (default 200)
+   * @param {number} [opts.stallTimeoutMs] reconnect if a pose gets no frame back for this long (default 15000; 0: never)
    */
   constructor(opts = {}) {
     super();
@@ -128,6 +129,7 @@ export class HomcullClient extends EventTarget {
     this.backoff = { ...DEFAULT_BACKOFF, ...(opts.backoff ?? {}) };
     this.reconnect = opts.reconnect ?? true;
     this.rttWindow = opts.rttWindow ?? 200;
+    this.stallTimeoutMs = opts.stallTimeoutMs ?? 15000;
     this._WebSocket = opts.WebSocket ?? globalThis.WebSocket;
     const raf = opts.requestAnimationFrame ?? globalThis.requestAnimationFrame?.bind(globalThis);
     this._raf = raf ?? ((cb) => setTimeout(() => cb(Date.now()), 16));
@@ -161,6 +163,7 @@ export class HomcullClient extends EventTarget {
     this._haveBase = false; // a Full frame arrived on this connection
     this._timer = null;
     this._retryTimer = null;
+    this._stallTimer = null;
     this._fatal = false;
   }
 
@@ -251,6 +254,9 @@ export class HomcullClient extends EventTarget {
     this._dirty = false;
     this._wantFull = false;
     this._gateClosed = true;
+    if (this._stallTimer === null && this.stallTimeoutMs > 0) {
+      this._stallTimer = this._setTimeout(() => this._onStall(), this.stallTimeoutMs);
+    }
     this._raf(() => {
       this._gateClosed = false;
       this._pump();
@@ -336,8 +342,26 @@ export class HomcullClient extends EventTarget {
     }
   }
 
+  /** A pose went unanswered for `stallTimeoutMs`: drop the connection and start over. */
+  _onStall() {
+    this._stallTimer = null;
+    const ws = this._ws;
+    if (!ws || this.state !== State.OPEN) return;
+    this._ws = null;
+    detach(ws);
+    try {
+      ws.close(4000, "no answer");
+    } catch {
+      /* ignore */
+    }
+    const secs = (this.stallTimeoutMs / 1000).toFixed(1);
+    this._emit("error", { code: "connection", message: `no answer from the server for ${secs} s; reconnecting`, fatal: false });
+    this._lost(true);
+  }
+
   /** The connection is gone: schedule a reconnect (or stop). */
   _lost(wasOpen) {
+    this._clearStall();
     this._inFlight.clear();
     this._haveBase = false;
     if (!this.reconnect || this.state === State.CLOSED) {
@@ -374,6 +398,7 @@ export class HomcullClient extends EventTarget {
   // --- receiving -----------------------------------------------------------------------
 
   _onMessage(data) {
+    this._clearStall();
     if (typeof data === "string") {
       this._emit("error", { code: "protocol", message: "unexpected text message from the server", fatal: false });
       return;
@@ -507,11 +532,17 @@ export class HomcullClient extends EventTarget {
 
   // --- helpers -------------------------------------------------------------------------
 
+  _clearStall() {
+    if (this._stallTimer !== null) this._clearTimeout(this._stallTimer);
+    this._stallTimer = null;
+  }
+
   _cancelTimers() {
     if (this._retryTimer !== null) this._clearTimeout(this._retryTimer);
     if (this._timer !== null) this._clearTimeout(this._timer);
     this._retryTimer = null;
     this._timer = null;
+    this._clearStall();
   }
 
   _setState(state, extra = {}) {

@@ -403,3 +403,28 @@ test("close() stops everything and no reconnect follows", () => {
   h.client.connect();
   assert.equal(h.sockets.length, 2);
 });
+
+test("a pose left unanswered for stallTimeoutMs drops the connection and reconnects", () => {
+  const h = harness();
+  h.client.connect();
+  const ws = h.last();
+  ws.hello();
+  h.client.setPose(pose(1));
+  assert.deepEqual(h.pendingTimers(), [15000], "the watchdog is armed by the send");
+  ws.receive({ kind: "full", seq: 1, ack: 1, stats: STATS, ids: [1] });
+  assert.deepEqual(h.pendingTimers(), [], "and disarmed by any frame");
+  h.tick();
+  h.client.setPose(pose(2));
+  assert.deepEqual(h.pendingTimers(), [15000]);
+  h.runTimers(); // 15 s without an answer
+  assert.equal(ws.closed.code, 4000);
+  assert.match(h.of("error").at(-1).message, /no answer from the server for 15\.0 s/);
+  assert.equal(h.client.state, State.RECONNECTING);
+  assert.deepEqual(h.pendingTimers(), [250], "reconnects after the first backoff step");
+  h.runTimers();
+  h.last().hello();
+  h.tick(); // the pose sent just before the stall closed this animation frame's gate
+  assert.equal(h.last().sent.length, 1);
+  assert.equal(h.last().sent[0].want_full, true);
+  assert.deepEqual(h.last().sent[0].position, [2, Math.fround(1.7), 0]);
+});

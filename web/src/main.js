@@ -1,0 +1,854 @@
+// homcull viewer: loads a scene's GLB with three.js, streams the camera pose to the
+// server and draws exactly the visible set the server answers.
+
+import * as THREE from "three";
+import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
+import { OrbitControls } from "three/addons/controls/OrbitControls.js";
+
+import { HomcullClient, State } from "./client.js";
+import { flatten, mapObjects } from "./scene-map.js";
+
+const EYE_HEIGHT = 1.7;
+const WALK_SPEED = 5; // m/s; Shift runs at 4x
+const TURN_SPEED = 1.6; // rad/s with the arrow keys
+const LOOK_SENSITIVITY = 0.0025; // rad per pixel
+const NEAR = 0.1;
+const DEFAULT_FAR = 5000;
+
+const $ = (id) => document.getElementById(id);
+const query = new URLSearchParams(location.search);
+
+// --- errors shown in the page --------------------------------------------------------
+
+const errorBox = $("errors");
+const shownErrors = new Map();
+
+/** Shows `message` in the page (replacing an earlier one with the same key). */
+function showError(key, message, { warn = false, log = true } = {}) {
+  let el = shownErrors.get(key);
+  if (!el) {
+    el = document.createElement("div");
+    el.className = "error";
+    el.dataset.key = key;
+    const text = document.createElement("span");
+    const close = document.createElement("button");
+    close.type = "button";
+    close.setAttribute("aria-label", "dismiss");
+    close.textContent = "\u00d7";
+    close.onclick = () => clearError(key);
+    el.append(text, close);
+    errorBox.append(el);
+    shownErrors.set(key, el);
+  }
+  el.classList.toggle("warn", warn);
+  el.firstChild.textContent = message;
+  if (log) (warn ? console.warn : console.error)(`homcull: ${message}`);
+}
+
+function clearError(key) {
+  shownErrors.get(key)?.remove();
+  shownErrors.delete(key);
+}
+
+// --- three.js setup ------------------------------------------------------------------
+
+const canvas = $("view");
+let renderer;
+try {
+  renderer = new THREE.WebGLRenderer({ canvas, antialias: true, powerPreference: "high-performance" });
+} catch (e) {
+  renderer = null;
+  $("boot-message").textContent = `WebGL is not available in this browser (${e.message}).`;
+  showError("webgl", `WebGL is not available in this browser: ${e.message}`);
+}
+if (renderer) renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
+
+const scene3 = new THREE.Scene();
+const SKY = new THREE.Color(0x9cc3e6);
+scene3.background = SKY;
+scene3.add(new THREE.HemisphereLight(0xdde8f5, 0x6b6357, 1.5));
+const sun = new THREE.DirectionalLight(0xfff4e0, 1.1);
+sun.position.set(-0.45, 1, 0.3);
+scene3.add(sun);
+
+const camera = new THREE.PerspectiveCamera(60, 16 / 9, NEAR, DEFAULT_FAR);
+camera.rotation.order = "YXZ";
+scene3.add(camera);
+
+const overviewCamera = new THREE.PerspectiveCamera(50, 16 / 9, 1, 20000);
+const frustumProxy = new THREE.PerspectiveCamera(60, 16 / 9, NEAR, 60);
+const frustumHelper = new THREE.CameraHelper(frustumProxy);
+frustumHelper.visible = false;
+scene3.add(frustumHelper);
+
+const objectsRoot = new THREE.Group();
+objectsRoot.name = "homcull objects";
+scene3.add(objectsRoot);
+
+const controls = new OrbitControls(camera, canvas);
+controls.enabled = false;
+controls.enableDamping = false;
+
+// --- app state -----------------------------------------------------------------------
+
+const app = {
+  sceneId: null,
+  sceneInfo: null,
+  objects: [], // object table rows
+  triangles: new Uint32Array(0),
+  occluder: new Uint8Array(0),
+  meshesById: [],
+  groundY: 0,
+  mode: "walk",
+  yaw: 0,
+  pitch: 0,
+  keys: new Set(),
+  dragging: null,
+  culling: query.get("culling") !== "off",
+  debug: query.get("debug") === "1",
+  overview: query.get("overview") === "1",
+  client: null,
+  latest: null, // last 'visible' event detail + mask
+  latestVersion: 0,
+  appliedVersion: -1,
+  appliedKey: "",
+  rendered: null, // {ack, ids, stats} of the last rendered frame
+  lastPose: null, // {seq, position, rotation, fov_y_deg, viewport, near, far} last sent
+  drawnCount: 0,
+  drawnTriangles: 0,
+  fps: 0,
+  frameTimes: [],
+  debugGroup: null,
+  loaded: false,
+};
+
+let resolveReady;
+let rejectReady;
+const ready = new Promise((res, rej) => {
+  resolveReady = res;
+  rejectReady = rej;
+});
+ready.catch(() => {}); // reported in the page; tests await it themselves
+
+// --- materials -----------------------------------------------------------------------
+
+const palette = {
+  ground_block: 0x8f9a86,
+  ground_street: 0x55595e,
+  ground_crossing: 0x676b70,
+  ground: 0x8f9a86,
+  building_a: 0xd8cbb3,
+  building_b: 0xc9b59b,
+  building_c: 0xb9c2c9,
+  building_d: 0xe0d6c6,
+  building_e: 0xa9a39a,
+  building_f: 0xcfc0a8,
+  building_g: 0xbcb6ae,
+  building_h: 0xd3c5b6,
+  building: 0xcdbfa9,
+  tree: 0x4f7f3a,
+  car: 0x8a3b3b,
+  bench: 0x7a5a3a,
+};
+const materialCache = new Map();
+
+function paletteMaterial(name) {
+  const key = String(name || "")
+    .toLowerCase()
+    .replace(/(_\d+)+$/, "");
+  const prefix = Object.keys(palette)
+    .filter((k) => key.startsWith(k))
+    .sort((a, b) => b.length - a.length)[0];
+  const color = prefix ? palette[prefix] : 0xc8c8c8;
+  if (!materialCache.has(color)) {
+    materialCache.set(color, new THREE.MeshLambertMaterial({ color, flatShading: true, side: THREE.DoubleSide }));
+  }
+  return materialCache.get(color);
+}
+
+const debugMaterials = {
+  occluder: new THREE.MeshLambertMaterial({ color: 0x3f7fe0, flatShading: true, side: THREE.DoubleSide }),
+  drawn: new THREE.MeshLambertMaterial({ color: 0xf4f4f4, flatShading: true, side: THREE.DoubleSide }),
+  culled: new THREE.MeshBasicMaterial({ color: 0xe02020, wireframe: true, transparent: true, opacity: 0.4, depthTest: false }),
+};
+
+function prepareMaterials(gltf, meshesById) {
+  const assoc = gltf.parser.associations;
+  meshesById.forEach((meshes, id) => {
+    const row = app.objects[id];
+    for (const m of meshes) {
+      const hasNormals = Boolean(m.geometry?.attributes?.normal);
+      const mats = Array.isArray(m.material) ? m.material : [m.material];
+      // GLTFLoader's default material (primitives without one) has no glTF material index;
+      // its flat-shaded clones are associated with `undefined`.
+      const isDefault = mats.every((mat) => !mat || assoc.get(mat)?.materials === undefined);
+      if (isDefault && m.isMesh) {
+        m.material = paletteMaterial(row?.name ?? m.name);
+      } else if (!hasNormals && m.isMesh) {
+        m.material = mats.map((mat) => {
+          const key = `flat:${mat.uuid}`;
+          if (!materialCache.has(key)) {
+            const c = mat.clone();
+            c.flatShading = true;
+            materialCache.set(key, c);
+          }
+          return materialCache.get(key);
+        });
+        if (m.material.length === 1) m.material = m.material[0];
+      }
+      m.userData.homcullMaterial = m.material;
+    }
+  });
+}
+
+// --- loading -------------------------------------------------------------------------
+
+async function fetchJson(url, what) {
+  let r;
+  try {
+    r = await fetch(url);
+  } catch (e) {
+    throw new Error(`cannot reach the homcull server at ${location.origin} (${e.message}); is it running?`);
+  }
+  let body = null;
+  try {
+    body = await r.json();
+  } catch {
+    /* not JSON */
+  }
+  if (!r.ok) {
+    const msg = body?.error?.message ?? `HTTP ${r.status}`;
+    const err = new Error(`${what}: ${msg}`);
+    err.status = r.status;
+    err.code = body?.error?.code;
+    throw err;
+  }
+  return body;
+}
+
+async function loadGlb(url, onProgress) {
+  let r;
+  try {
+    r = await fetch(url);
+  } catch (e) {
+    throw new Error(`cannot reach the homcull server at ${location.origin} (${e.message})`);
+  }
+  if (!r.ok) {
+    let msg = `HTTP ${r.status}`;
+    try {
+      msg = (await r.json()).error.message;
+    } catch {
+      /* keep the status */
+    }
+    throw new Error(`scene GLB: ${msg}`);
+  }
+  const total = Number(r.headers.get("content-length")) || 0;
+  let buffer;
+  if (r.body && total) {
+    const reader = r.body.getReader();
+    const out = new Uint8Array(total);
+    let got = 0;
+    for (;;) {
+      const { done, value } = await reader.read();
+      if (done) break;
+      if (got + value.length > out.length) throw new Error("scene GLB is longer than its Content-Length");
+      out.set(value, got);
+      got += value.length;
+      onProgress(got, total);
+    }
+    buffer = out.buffer.slice(0, got);
+  } else {
+    buffer = await r.arrayBuffer();
+  }
+  return new GLTFLoader().parseAsync(buffer, "");
+}
+
+async function start() {
+  if (!renderer) {
+    rejectReady(new Error("WebGL is not available"));
+    return;
+  }
+  const bootMessage = $("boot-message");
+  try {
+    const list = await fetchJson("/v1/scenes", "scene list");
+    const scenes = list.scenes ?? [];
+    const select = $("scene-select");
+    for (const s of scenes) {
+      const opt = document.createElement("option");
+      opt.value = s.id;
+      opt.textContent = `${s.name || s.id} (${s.objects.toLocaleString("en-US")} objects)`;
+      select.append(opt);
+    }
+    const wanted = query.get("scene");
+    const info = wanted ? scenes.find((s) => s.id === wanted) : (scenes.find((s) => s.id === "demo") ?? scenes[0]);
+    if (!info) {
+      throw new Error(wanted ? `unknown scene "${wanted}": this server has ${scenes.map((s) => s.id).join(", ") || "no scenes"}` : "this server has no scenes yet: upload a GLB with POST /v1/scenes");
+    }
+    select.value = info.id;
+    select.onchange = () => {
+      const q = new URLSearchParams(location.search);
+      q.set("scene", select.value);
+      location.search = q.toString();
+    };
+    app.sceneId = info.id;
+    app.sceneInfo = info;
+    for (const w of info.warnings ?? []) showError(`warn:${w}`, `scene ${info.id}: ${w}`, { warn: true, log: false });
+    bootMessage.textContent = `Loading ${info.name || info.id}\u2026`;
+
+    const objectsPromise = fetchJson(`/v1/scenes/${encodeURIComponent(info.id)}/objects`, "object table");
+    const mb = (n) => (n / 1048576).toFixed(1);
+    const gltf = await loadGlb(`/v1/scenes/${encodeURIComponent(info.id)}/glb`, (got, total) => {
+      bootMessage.textContent = `Loading ${info.name || info.id}: ${mb(got)} / ${mb(total)} MB`;
+    });
+    const { objects } = await objectsPromise;
+    app.objects = objects;
+    app.triangles = Uint32Array.from(objects, (o) => o.triangles);
+    app.occluder = Uint8Array.from(objects, (o) => (o.occluder ? 1 : 0));
+
+    const { meshesById, warnings } = mapObjects(gltf);
+    for (const w of warnings) console.warn(`homcull: ${w}`);
+    if (meshesById.length !== objects.length) {
+      throw new Error(
+        `the scene GLB has ${meshesById.length} mesh nodes but the server lists ${objects.length} objects: object IDs cannot be mapped to meshes`,
+      );
+    }
+    prepareMaterials(gltf, meshesById);
+    flatten(gltf.scene, meshesById, objectsRoot);
+    app.meshesById = meshesById;
+    for (const meshes of meshesById) for (const m of meshes) m.visible = false;
+
+    const [lo, hi] = info.bounds;
+    app.groundY = lo[1];
+    const diag = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+    camera.far = Math.min(Math.max(DEFAULT_FAR, diag * 2), NEAR * 1e7);
+    scene3.fog = new THREE.Fog(SKY, Math.max(200, diag * 0.25), Math.max(1500, diag * 1.5));
+    startPose(info);
+
+    $("boot").hidden = true;
+    $("toolbar").hidden = false;
+    $("hud").hidden = false;
+    $("help").hidden = false;
+    setHud("hud-objects-total", objects.length, fmtInt);
+    setHud("hud-triangles-total", info.triangles ?? app.triangles.reduce((a, b) => a + b, 0), fmtInt);
+    app.loaded = true;
+    connect(info.id);
+  } catch (e) {
+    bootMessage.textContent = e.message;
+    showError("load", e.message);
+    rejectReady(e);
+  }
+}
+
+function startPose(info) {
+  if (info.id === "demo") {
+    // The demo city's origin is on an open street crossing; look east along the street.
+    setWalkPose([0, EYE_HEIGHT, 0], -90, 0);
+    return;
+  }
+  const [lo, hi] = info.bounds;
+  const c = new THREE.Vector3((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2);
+  const r = Math.max(1, Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) / 2);
+  setMode("orbit");
+  camera.position.set(c.x + r * 0.9, c.y + r * 0.7, c.z + r * 0.9);
+  controls.target.copy(c);
+  controls.update();
+}
+
+// --- streaming -----------------------------------------------------------------------
+
+function connect(sceneId) {
+  const params = {};
+  for (const k of ["method", "threshold", "deb"]) if (query.has(k)) params[k] = query.get(k);
+  const client = new HomcullClient({ url: location.origin, scene: sceneId, params });
+  app.client = client;
+  client.addEventListener("state", (e) => {
+    const { state, delayMs } = e.detail;
+    const label = state === State.RECONNECTING && delayMs !== undefined ? `reconnecting in ${(delayMs / 1000).toFixed(1)} s` : state;
+    setHud("hud-state", state, () => label);
+    if (state === State.OPEN) clearError("connection");
+  });
+  client.addEventListener("hello", (e) => {
+    const { info, objectCount } = e.detail;
+    const adapter = `${info.adapter ?? "unknown adapter"}${info.cpu_fallback ? " (CPU fallback)" : ""}`;
+    setHud("hud-adapter", adapter, (v) => v);
+    $("hud-adapter").title = adapter;
+    if (objectCount !== app.objects.length) {
+      showError("mismatch", `the stream reports ${objectCount} objects but the object table has ${app.objects.length}; reload the page`);
+    }
+  });
+  client.addEventListener("pose", (e) => {
+    const { seq, pose, wantFull } = e.detail;
+    app.lastPose = { seq, wantFull, ...pose };
+  });
+  client.addEventListener("visible", (e) => {
+    const d = e.detail;
+    const mask = new Uint8Array(app.meshesById.length);
+    for (const id of d.ids) if (id < mask.length) mask[id] = 1;
+    app.latest = { ack: d.ack, ids: d.ids, stats: d.stats, mask };
+    app.latestVersion += 1;
+    if (d.ids.length && d.ids[d.ids.length - 1] >= mask.length) {
+      showError("range", `the server sent object ID ${d.ids[d.ids.length - 1]}, beyond the ${mask.length} objects of the scene`);
+    }
+  });
+  client.addEventListener("error", (e) => {
+    const { code, message, fatal } = e.detail;
+    const key = code === "connection" ? "connection" : `stream:${code}`;
+    showError(key, fatal ? `${message} (the viewer stopped streaming; reload to retry)` : message, {
+      warn: !fatal && code !== "protocol" && code !== "bad_delta",
+    });
+  });
+  client.connect();
+}
+
+function currentPose() {
+  const w = Math.max(1, Math.round(canvas.clientWidth));
+  const h = Math.max(1, Math.round(canvas.clientHeight));
+  return {
+    position: camera.position.toArray(),
+    rotation: camera.quaternion.toArray(),
+    fov_y_deg: camera.fov,
+    viewport: [w, h],
+    near: camera.near,
+    far: camera.far,
+  };
+}
+
+// --- controls ------------------------------------------------------------------------
+
+function setMode(mode) {
+  if (mode === app.mode) return;
+  if (mode === "orbit") {
+    const fwd = new THREE.Vector3();
+    camera.getWorldDirection(fwd);
+    controls.target.copy(camera.position).addScaledVector(fwd, 30);
+    if (document.pointerLockElement) document.exitPointerLock();
+    controls.enabled = true;
+    controls.update();
+  } else {
+    controls.enabled = false;
+    const fwd = new THREE.Vector3();
+    camera.getWorldDirection(fwd);
+    app.yaw = Math.atan2(-fwd.x, -fwd.z);
+    app.pitch = 0;
+    camera.position.y = app.groundY + EYE_HEIGHT;
+    applyWalkRotation();
+  }
+  app.mode = mode;
+  $("mode-walk").setAttribute("aria-pressed", String(mode === "walk"));
+  $("mode-orbit").setAttribute("aria-pressed", String(mode === "orbit"));
+  $("help-walk").hidden = mode !== "walk";
+  $("help-orbit").hidden = mode !== "orbit";
+}
+
+function applyWalkRotation() {
+  app.pitch = Math.max(-Math.PI / 2 + 0.01, Math.min(Math.PI / 2 - 0.01, app.pitch));
+  camera.rotation.set(app.pitch, app.yaw, 0, "YXZ");
+  camera.updateMatrixWorld();
+}
+
+/** Puts the camera at `position`, turned `yawDeg` about +Y from −Z (−90 looks along +X), `pitchDeg` up. */
+function setWalkPose(position, yawDeg = 0, pitchDeg = 0) {
+  setMode("walk");
+  camera.position.set(position[0], position[1], position[2]);
+  app.yaw = THREE.MathUtils.degToRad(yawDeg);
+  app.pitch = THREE.MathUtils.degToRad(pitchDeg);
+  applyWalkRotation();
+}
+
+function updateWalk(dt) {
+  const k = app.keys;
+  const turn = (k.has("ArrowLeft") ? 1 : 0) - (k.has("ArrowRight") ? 1 : 0);
+  if (turn) {
+    app.yaw += turn * TURN_SPEED * dt;
+    applyWalkRotation();
+  }
+  const fwd = (k.has("KeyW") || k.has("ArrowUp") ? 1 : 0) - (k.has("KeyS") || k.has("ArrowDown") ? 1 : 0);
+  const side = (k.has("KeyD") ? 1 : 0) - (k.has("KeyA") ? 1 : 0);
+  if (!fwd && !side) return;
+  const speed = WALK_SPEED * (k.has("ShiftLeft") || k.has("ShiftRight") ? 4 : 1);
+  const dir = new THREE.Vector3(-Math.sin(app.yaw) * fwd + Math.cos(app.yaw) * side, 0, -Math.cos(app.yaw) * fwd - Math.sin(app.yaw) * side);
+  if (dir.lengthSq() > 0) dir.normalize();
+  camera.position.addScaledVector(dir, speed * dt);
+}
+
+const typing = (e) => e.target instanceof HTMLInputElement || e.target instanceof HTMLSelectElement || e.target instanceof HTMLTextAreaElement;
+
+window.addEventListener("keydown", (e) => {
+  if (typing(e) || e.ctrlKey || e.metaKey || e.altKey) return;
+  const single = {
+    KeyM: () => setMode(app.mode === "walk" ? "orbit" : "walk"),
+    KeyC: () => setCulling(!app.culling),
+    KeyB: () => setDebug(!app.debug),
+    KeyO: () => setOverview(!app.overview),
+    KeyP: () => setPyramid($("pyramid").hidden),
+  }[e.code];
+  if (single) {
+    if (!e.repeat) single();
+    return;
+  }
+  if (app.mode === "walk") {
+    app.keys.add(e.code);
+    if (e.code.startsWith("Arrow")) e.preventDefault();
+  }
+});
+window.addEventListener("keyup", (e) => app.keys.delete(e.code));
+window.addEventListener("blur", () => app.keys.clear());
+
+canvas.addEventListener("click", () => {
+  if (app.mode === "walk" && !document.pointerLockElement && canvas.requestPointerLock) {
+    try {
+      const p = canvas.requestPointerLock();
+      if (p && p.catch) p.catch(() => {}); // refused (e.g. headless): dragging still works
+    } catch {
+      /* dragging still works */
+    }
+  }
+});
+canvas.addEventListener("pointerdown", (e) => {
+  if (app.mode === "walk" && !document.pointerLockElement) app.dragging = { x: e.clientX, y: e.clientY };
+});
+window.addEventListener("pointerup", () => (app.dragging = null));
+window.addEventListener("mousemove", (e) => {
+  if (app.mode !== "walk") return;
+  let dx = 0;
+  let dy = 0;
+  if (document.pointerLockElement === canvas) {
+    dx = e.movementX;
+    dy = e.movementY;
+  } else if (app.dragging) {
+    dx = e.clientX - app.dragging.x;
+    dy = e.clientY - app.dragging.y;
+    app.dragging = { x: e.clientX, y: e.clientY };
+  } else return;
+  app.yaw -= dx * LOOK_SENSITIVITY;
+  app.pitch -= dy * LOOK_SENSITIVITY;
+  applyWalkRotation();
+});
+
+$("mode-walk").onclick = () => setMode("walk");
+$("mode-orbit").onclick = () => setMode("orbit");
+$("culling-toggle").onchange = (e) => setCulling(e.target.checked);
+$("debug-toggle").onchange = (e) => setDebug(e.target.checked);
+$("overview-toggle").onchange = (e) => setOverview(e.target.checked);
+$("pyramid-button").onclick = () => setPyramid($("pyramid").hidden);
+$("pyramid-close").onclick = () => setPyramid(false);
+
+function setCulling(on) {
+  app.culling = on;
+  $("culling-toggle").checked = on;
+}
+
+function setDebug(on) {
+  app.debug = on;
+  $("debug-toggle").checked = on;
+  if (!on) setOverview(false);
+}
+
+function setOverview(on) {
+  app.overview = on;
+  $("overview-toggle").checked = on;
+  if (on && !app.debug) setDebug(true);
+}
+
+$("culling-toggle").checked = app.culling;
+$("debug-toggle").checked = app.debug;
+$("overview-toggle").checked = app.overview;
+
+// --- drawing the visible set ---------------------------------------------------------
+
+/** Sets mesh.visible (and debug materials) from the latest visible set; cheap if unchanged. */
+function applyVisibility() {
+  const latest = app.latest;
+  const key = `${app.culling}|${app.debug}`;
+  if (app.appliedVersion === app.latestVersion && app.appliedKey === key) return;
+  app.appliedVersion = app.latestVersion;
+  app.appliedKey = key;
+  const mask = latest?.mask;
+  let count = 0;
+  let tris = 0;
+  const wires = app.debug ? ensureDebugGroup() : null;
+  app.meshesById.forEach((meshes, id) => {
+    const visible = app.culling ? Boolean(mask && mask[id]) : true;
+    if (visible) {
+      count += 1;
+      tris += app.triangles[id];
+    }
+    for (const m of meshes) {
+      m.visible = visible;
+      m.material = app.debug ? (app.occluder[id] ? debugMaterials.occluder : debugMaterials.drawn) : m.userData.homcullMaterial;
+    }
+    if (wires) for (const w of wires[id]) w.visible = !(mask && mask[id]);
+  });
+  if (app.debugGroup) app.debugGroup.visible = app.debug;
+  app.drawnCount = count;
+  app.drawnTriangles = tris;
+}
+
+function ensureDebugGroup() {
+  if (app.debugGroup) return app.debugGroup.userData.byId;
+  const group = new THREE.Group();
+  group.name = "homcull culled (debug)";
+  const byId = app.meshesById.map((meshes) =>
+    meshes
+      .filter((m) => m.isMesh)
+      .map((m) => {
+        const w = new THREE.Mesh(m.geometry, debugMaterials.culled);
+        w.matrixAutoUpdate = false;
+        w.matrix.copy(m.matrixWorld);
+        w.renderOrder = 1;
+        group.add(w);
+        return w;
+      }),
+  );
+  group.userData.byId = byId;
+  group.updateMatrixWorld(true);
+  scene3.add(group);
+  app.debugGroup = group;
+  return byId;
+}
+
+// --- HUD -----------------------------------------------------------------------------
+
+const fmtInt = (v) => Number(v).toLocaleString("en-US");
+const fmtMs = (v) => (Number.isFinite(v) ? v.toFixed(1) : "\u2013");
+
+function setHud(id, value, format) {
+  const el = $(id);
+  const raw = String(value);
+  if (el.dataset.value === raw && el.dataset.init) return;
+  el.dataset.value = raw;
+  el.dataset.init = "1";
+  el.textContent = format(value);
+}
+
+function updateHud() {
+  const frame = app.rendered;
+  const total = app.objects.length;
+  setHud("hud-objects-drawn", app.drawnCount, fmtInt);
+  setHud("hud-triangles-drawn", app.drawnTriangles, fmtInt);
+  if (frame) {
+    const s = frame.stats;
+    const pct = (n) => (s.objects ? `(${((100 * n) / s.objects).toFixed(0)} %)` : "");
+    setHud("hud-objects-total", s.objects, fmtInt);
+    setHud("hud-culled-frustum", s.culled_by_frustum, fmtInt);
+    setHud("hud-culled-occlusion", s.culled_by_occlusion, fmtInt);
+    $("hud-culled-frustum-pct").textContent = pct(s.culled_by_frustum);
+    $("hud-culled-occlusion-pct").textContent = pct(s.culled_by_occlusion);
+    setHud("hud-cull-ms", s.total_us / 1000, fmtMs);
+    setHud("hud-gpu-ms", s.gpu_us / 1000, fmtMs);
+  } else {
+    setHud("hud-objects-total", total, fmtInt);
+  }
+  if (app.client) {
+    const r = app.client.rtt();
+    setHud("hud-rtt-p50", Number.isFinite(r.p50) ? r.p50 : "", (v) => (v === "" ? "\u2013" : fmtMs(v)));
+    setHud("hud-rtt-p95", Number.isFinite(r.p95) ? r.p95 : "", (v) => (v === "" ? "\u2013" : fmtMs(v)));
+  }
+  setHud("hud-fps", app.fps, (v) => String(v));
+  const notes = [];
+  if (!app.culling) notes.push("Culling is off: everything is drawn.");
+  if (app.debug) notes.push("Debug view: occluders blue, other drawn objects white, culled objects red wireframe.");
+  const note = notes.join(" ");
+  if ($("hud-note").textContent !== note) $("hud-note").textContent = note;
+}
+
+// --- pyramid panel -------------------------------------------------------------------
+
+const pyramid = { open: false, busy: false, lastSeq: null, lastAt: 0, unavailable: false };
+
+function setPyramid(open) {
+  pyramid.open = open;
+  $("pyramid").hidden = !open;
+  $("pyramid-button").setAttribute("aria-pressed", String(open));
+  if (open) {
+    pyramid.lastSeq = null;
+    refreshPyramid();
+  }
+}
+
+async function refreshPyramid() {
+  if (!pyramid.open || pyramid.busy || pyramid.unavailable || !app.lastPose || !app.sceneId) return;
+  if (pyramid.lastSeq === app.lastPose.seq) return;
+  const now = performance.now();
+  if (now - pyramid.lastAt < 500) return;
+  pyramid.busy = true;
+  pyramid.lastAt = now;
+  const { seq, position, rotation, fov_y_deg, viewport, near, far } = app.lastPose;
+  const status = $("pyramid-status");
+  try {
+    const r = await fetch(`/v1/scenes/${encodeURIComponent(app.sceneId)}/pyramid`, {
+      method: "POST",
+      headers: { "content-type": "application/json" },
+      body: JSON.stringify({ pose: { position, rotation, fov_y_deg, viewport, near, far } }),
+    });
+    let body = null;
+    try {
+      body = await r.json();
+    } catch {
+      /* not JSON */
+    }
+    if (r.status === 404 && body?.error?.code !== "unknown_scene") {
+      pyramid.unavailable = true;
+      status.textContent = "pyramid view not available on this server";
+      $("pyramid-levels").replaceChildren();
+      return;
+    }
+    if (!r.ok) throw new Error(body?.error?.message ?? `HTTP ${r.status}`);
+    const levels = body?.levels ?? [];
+    const figs = levels.map((l) => {
+      const fig = document.createElement("figure");
+      const img = document.createElement("img");
+      img.src = l.png;
+      img.alt = `level ${l.level}`;
+      const scale = Math.max(1, Math.min(4, Math.floor(256 / Math.max(1, l.width))));
+      img.width = Math.min(l.width * scale, 320);
+      img.height = Math.round((img.width * l.height) / Math.max(1, l.width));
+      const cap = document.createElement("figcaption");
+      cap.textContent = `level ${l.level}: ${l.width}\u00d7${l.height}`;
+      fig.append(img, cap);
+      return fig;
+    });
+    $("pyramid-levels").replaceChildren(...figs);
+    status.textContent = `${levels.length} levels for pose #${seq} (white = opaque)`;
+    pyramid.lastSeq = seq;
+    clearError("pyramid");
+  } catch (e) {
+    status.textContent = `pyramid request failed: ${e.message}`;
+    showError("pyramid", `pyramid request failed: ${e.message}`);
+  } finally {
+    pyramid.busy = false;
+  }
+}
+
+// --- render loop ---------------------------------------------------------------------
+
+let lastTime = performance.now();
+let firstFrameDone = false;
+
+function resize() {
+  const w = Math.max(1, canvas.clientWidth);
+  const h = Math.max(1, canvas.clientHeight);
+  const size = renderer.getSize(new THREE.Vector2());
+  if (size.x !== w || size.y !== h) {
+    renderer.setSize(w, h, false);
+  }
+  if (camera.aspect !== w / h) {
+    camera.aspect = w / h;
+    camera.updateProjectionMatrix();
+  }
+  overviewCamera.aspect = w / h;
+  overviewCamera.updateProjectionMatrix();
+}
+
+function renderOverview() {
+  const fwd = new THREE.Vector3();
+  camera.getWorldDirection(fwd);
+  fwd.y = 0;
+  if (fwd.lengthSq() < 1e-6) fwd.set(0, 0, -1);
+  fwd.normalize();
+  const height = 220;
+  overviewCamera.position.copy(camera.position).addScaledVector(fwd, -60).add(new THREE.Vector3(0, height, 0));
+  overviewCamera.up.copy(fwd);
+  overviewCamera.lookAt(camera.position.clone().addScaledVector(fwd, 60));
+  frustumProxy.position.copy(camera.position);
+  frustumProxy.quaternion.copy(camera.quaternion);
+  frustumProxy.fov = camera.fov;
+  frustumProxy.aspect = camera.aspect;
+  frustumProxy.updateProjectionMatrix();
+  frustumProxy.updateMatrixWorld();
+  frustumHelper.update();
+  frustumHelper.visible = true;
+  renderer.render(scene3, overviewCamera);
+  frustumHelper.visible = false;
+}
+
+function loop(now) {
+  requestAnimationFrame(loop);
+  const dt = Math.min(0.1, Math.max(0, (now - lastTime) / 1000));
+  lastTime = now;
+  resize();
+  if (app.mode === "walk") updateWalk(dt);
+  else controls.update();
+  camera.updateMatrixWorld();
+  if (app.client && app.loaded) app.client.setPose(currentPose());
+  applyVisibility();
+  if (app.overview) renderOverview();
+  else renderer.render(scene3, camera);
+  app.rendered = app.latest ? { ack: app.latest.ack, ids: app.latest.ids, stats: app.latest.stats } : null;
+
+  app.frameTimes.push(now);
+  while (app.frameTimes.length && app.frameTimes[0] < now - 1000) app.frameTimes.shift();
+  app.fps = app.frameTimes.length;
+  updateHud();
+  if (pyramid.open) refreshPyramid();
+  if (!firstFrameDone && app.rendered && app.loaded) {
+    firstFrameDone = true;
+    resolveReady({ scene: app.sceneId, ack: app.rendered.ack });
+  }
+}
+
+// --- test and scripting hooks --------------------------------------------------------
+
+function drawnIds() {
+  const out = [];
+  app.meshesById.forEach((meshes, id) => {
+    if (meshes.some((m) => m.visible)) out.push(id);
+  });
+  return out;
+}
+
+function hud() {
+  const num = (id) => {
+    const v = $(id).dataset.value;
+    return v === "" || v === undefined ? null : Number(v);
+  };
+  return {
+    objectsDrawn: num("hud-objects-drawn"),
+    objectsTotal: num("hud-objects-total"),
+    trianglesDrawn: num("hud-triangles-drawn"),
+    trianglesTotal: num("hud-triangles-total"),
+    culledByFrustum: num("hud-culled-frustum"),
+    culledByOcclusion: num("hud-culled-occlusion"),
+    rttP50: num("hud-rtt-p50"),
+    rttP95: num("hud-rtt-p95"),
+    cullMs: num("hud-cull-ms"),
+    fps: num("hud-fps"),
+    state: $("hud-state").dataset.value,
+    adapter: $("hud-adapter").dataset.value,
+  };
+}
+
+window.homcull = {
+  ready,
+  /** Sorted IDs of the objects whose meshes were visible in the last rendered frame. */
+  drawnIds,
+  /** {ack, ids, stats} of the visible set drawn in the last rendered frame. */
+  get lastFrame() {
+    return app.rendered;
+  },
+  /** The last pose sent to the server: {seq, wantFull, position, rotation, fov_y_deg, viewport, near, far}. */
+  get lastPose() {
+    return app.lastPose;
+  },
+  /** Moves the camera (walk mode): yaw about +Y from −Z in degrees (−90 looks along +X), pitch up. */
+  setPose(position, yawDeg = 0, pitchDeg = 0) {
+    setWalkPose(position, yawDeg, pitchDeg);
+  },
+  /** The HUD numbers as shown. */
+  hud,
+  setCulling,
+  setDebug,
+  setOverview,
+  setPyramid,
+  setMode,
+  get client() {
+    return app.client;
+  },
+  get scene() {
+    return app.sceneInfo;
+  },
+  three: { scene: scene3, camera, renderer },
+};
+
+if (renderer) requestAnimationFrame(loop);
+start();

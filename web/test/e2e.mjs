@@ -1,0 +1,361 @@
+// End-to-end test of the viewer in real headless Chromium.
+//
+// Starts the homcull server (HOMCULL_BIN, default ../target/release/homcull) on a free
+// loopback port with a temporary data dir, opens the viewer with playwright-core in
+// Debian's Chromium (HOMCULL_CHROMIUM, default /usr/bin/chromium), walks a scripted
+// street-level path through the demo city and checks after every step that:
+//   - the meshes the page draws are exactly the visible set the server streamed for the
+//     pose the page sent,
+//   - that set (and its stats) equals an independent POST /v1/scenes/demo/cull of the
+//     same pose,
+//   - the HUD shows the frame's numbers,
+// and that the page logged no console errors. Also checks culling off, the debug view,
+// an unknown scene and a server going away (errors shown in the page), and saves
+// screenshots to HOMCULL_ARTIFACTS (default web/test-artifacts). The server is always
+// killed at the end. Exit status 0 on success.
+
+import { spawn } from "node:child_process";
+import { existsSync, mkdirSync, mkdtempSync, rmSync, writeFileSync } from "node:fs";
+import { createServer } from "node:net";
+import { tmpdir } from "node:os";
+import { dirname, join, resolve } from "node:path";
+import { fileURLToPath } from "node:url";
+import assert from "node:assert/strict";
+
+import { chromium } from "playwright-core";
+
+const webDir = resolve(dirname(fileURLToPath(import.meta.url)), "..");
+const BIN = resolve(process.env.HOMCULL_BIN ?? join(webDir, "..", "target", "release", "homcull"));
+const CHROMIUM = process.env.HOMCULL_CHROMIUM ?? "/usr/bin/chromium";
+const ARTIFACTS = resolve(process.env.HOMCULL_ARTIFACTS ?? join(webDir, "test-artifacts"));
+const TOTAL_TIMEOUT_MS = 170_000;
+const STEP_TIMEOUT_MS = 20_000;
+const VIEWPORT = { width: 960, height: 540 };
+
+const log = (...a) => console.log("e2e:", ...a);
+let server = null;
+let serverLog = "";
+let browser = null;
+let dataDir = null;
+
+function killServer(signal = "SIGKILL") {
+  if (server && server.exitCode === null && server.signalCode === null) {
+    try {
+      server.kill(signal);
+    } catch {
+      /* gone */
+    }
+  }
+}
+
+// Whatever happens, the server does not outlive this process.
+process.on("exit", () => killServer("SIGKILL"));
+for (const sig of ["SIGINT", "SIGTERM"]) {
+  process.on(sig, () => {
+    killServer("SIGKILL");
+    process.exit(130);
+  });
+}
+
+function freePort() {
+  return new Promise((res, rej) => {
+    const s = createServer();
+    s.unref();
+    s.on("error", rej);
+    s.listen(0, "127.0.0.1", () => {
+      const { port } = s.address();
+      s.close(() => res(port));
+    });
+  });
+}
+
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+async function waitReady(base) {
+  const until = Date.now() + 60_000;
+  while (Date.now() < until) {
+    if (server.exitCode !== null || server.signalCode !== null) {
+      throw new Error(`the server exited (${server.exitCode ?? server.signalCode}) before it was ready`);
+    }
+    try {
+      const r = await fetch(`${base}/readyz`);
+      if (r.status === 200) return;
+    } catch {
+      /* not listening yet */
+    }
+    await sleep(100);
+  }
+  throw new Error("the server was not ready within 60 s");
+}
+
+async function getJson(url, init) {
+  const r = await fetch(url, init);
+  const body = await r.json();
+  if (!r.ok) throw new Error(`${url}: HTTP ${r.status} ${JSON.stringify(body)}`);
+  return body;
+}
+
+/** Quaternion [x,y,z,w] of yaw about +Y then pitch about X (the viewer's walk camera). */
+function yawPitchQuat(yawDeg, pitchDeg) {
+  const y = (yawDeg * Math.PI) / 360;
+  const p = (pitchDeg * Math.PI) / 360;
+  // q = qYaw * qPitch
+  return [Math.cos(y) * Math.sin(p), Math.sin(y) * Math.cos(p), -Math.sin(y) * Math.sin(p), Math.cos(y) * Math.cos(p)];
+}
+
+async function main() {
+  if (!existsSync(BIN)) throw new Error(`server binary ${BIN} not found (build it, or set HOMCULL_BIN)`);
+  if (!existsSync(CHROMIUM)) throw new Error(`${CHROMIUM} not found (apt-get install chromium, or set HOMCULL_CHROMIUM)`);
+  mkdirSync(ARTIFACTS, { recursive: true });
+  const port = await freePort();
+  const base = `http://127.0.0.1:${port}`;
+  dataDir = mkdtempSync(join(tmpdir(), "homcull-e2e-"));
+  log(`starting ${BIN} on ${base}`);
+  server = spawn(BIN, ["serve", "--addr", `127.0.0.1:${port}`, "--data-dir", dataDir], {
+    env: { ...process.env, XDG_RUNTIME_DIR: process.env.XDG_RUNTIME_DIR ?? "/tmp" },
+    stdio: ["ignore", "pipe", "pipe"],
+  });
+  const keep = (d) => {
+    serverLog = (serverLog + d.toString()).slice(-20_000);
+  };
+  server.stdout.on("data", keep);
+  server.stderr.on("data", keep);
+  await waitReady(base);
+
+  const scenes = await getJson(`${base}/v1/scenes`);
+  const demo = scenes.scenes.find((s) => s.id === "demo");
+  assert.ok(demo, "the server has the demo scene");
+  const { objects } = await getJson(`${base}/v1/scenes/demo/objects`);
+  assert.equal(objects.length, demo.objects);
+
+  log(`launching ${CHROMIUM}`);
+  browser = await chromium.launch({
+    executablePath: CHROMIUM,
+    headless: true,
+    args: [
+      "--no-sandbox",
+      "--disable-gpu",
+      "--disable-background-networking",
+      "--disable-component-update",
+      "--disable-sync",
+      "--headless",
+    ],
+  });
+  const page = await browser.newPage({ viewport: VIEWPORT });
+  const consoleErrors = [];
+  page.on("console", (m) => {
+    if (m.type() === "error") consoleErrors.push(m.text());
+  });
+  page.on("pageerror", (e) => consoleErrors.push(`uncaught: ${e.message}`));
+
+  await page.goto(`${base}/`);
+  const renderer = await page.evaluate(() => {
+    const gl = document.getElementById("view").getContext("webgl2");
+    const ext = gl && gl.getExtension("WEBGL_debug_renderer_info");
+    return gl ? gl.getParameter(ext ? ext.UNMASKED_RENDERER_WEBGL : gl.RENDERER) : "no WebGL 2";
+  });
+  log(`WebGL renderer: ${renderer}`);
+  await page.evaluate(() => window.homcull.ready);
+  log("viewer ready: first visible set drawn");
+  const first = await page.evaluate(() => ({ frame: window.homcull.lastFrame, pose: window.homcull.lastPose }));
+  assert.ok(first.frame.ids.length > 0, "the start pose sees something");
+  assert.deepEqual(first.pose.viewport, [VIEWPORT.width, VIEWPORT.height], "the cull uses the canvas size");
+  assert.equal(first.pose.fov_y_deg, 60);
+
+  // The scripted walk: 20 steps of 5 m east along the street at z = 0, eye height 1.7 m,
+  // looking along +x with some turning and nodding.
+  const turns = [0, 0, 25, 0, -25];
+  const nods = [0, 0, 0, 5, -5];
+  const steps = Array.from({ length: 20 }, (_, i) => ({ position: [i * 5, 1.7, 0], yaw: -90 + turns[i % 5], pitch: nods[i % 5] }));
+  let occlusionShare = 0;
+  for (const [i, step] of steps.entries()) {
+    await page.evaluate(({ position, yaw, pitch }) => window.homcull.setPose(position, yaw, pitch), step);
+    await page.waitForFunction(
+      (p) => {
+        const h = window.homcull;
+        const pose = h.lastPose;
+        const frame = h.lastFrame;
+        return Boolean(pose && frame && pose.position.every((v, k) => v === Math.fround(p[k])) && frame.ack === pose.seq);
+      },
+      step.position,
+      { timeout: STEP_TIMEOUT_MS },
+    );
+    const snap = await page.evaluate(() => {
+      const h = window.homcull;
+      return { drawn: h.drawnIds(), frame: h.lastFrame, pose: h.lastPose, hud: h.hud() };
+    });
+    const { drawn, frame, pose, hud } = snap;
+    const where = `step ${i} at ${JSON.stringify(step.position)} yaw ${step.yaw}`;
+
+    // The pose sent is the camera's.
+    const q = yawPitchQuat(step.yaw, step.pitch);
+    pose.rotation.forEach((v, k) => assert.ok(Math.abs(v - q[k]) < 1e-5, `${where}: rotation ${pose.rotation} vs ${q}`));
+    assert.deepEqual(pose.viewport, [VIEWPORT.width, VIEWPORT.height], `${where}: viewport`);
+
+    // Drawn meshes == the set the server streamed.
+    assert.deepEqual(drawn, frame.ids, `${where}: drawn meshes differ from the streamed set`);
+
+    // The streamed set == an independent cull of the same pose.
+    const { position, rotation, fov_y_deg, viewport, near, far } = pose;
+    const cull = await getJson(`${base}/v1/scenes/demo/cull`, {
+      method: "POST",
+      headers: { "content-type": "application/json" },
+      body: JSON.stringify({ pose: { position, rotation, fov_y_deg, viewport, near, far } }),
+    });
+    assert.deepEqual(frame.ids, cull.visible, `${where}: streamed set differs from POST /cull`);
+    for (const k of ["objects", "candidates", "culled_by_frustum", "culled_by_occlusion", "occluders_used"]) {
+      assert.equal(frame.stats[k], cull.stats[k], `${where}: stats.${k} differs from POST /cull`);
+    }
+    const s = frame.stats;
+    assert.equal(s.objects - s.culled_by_frustum, s.candidates, `${where}: candidates`);
+    assert.equal(s.candidates - s.culled_by_occlusion, frame.ids.length, `${where}: visible count`);
+
+    // The HUD shows the frame's numbers.
+    const tris = frame.ids.reduce((sum, id) => sum + objects[id].triangles, 0);
+    assert.deepEqual(
+      {
+        objectsDrawn: hud.objectsDrawn,
+        objectsTotal: hud.objectsTotal,
+        trianglesDrawn: hud.trianglesDrawn,
+        trianglesTotal: hud.trianglesTotal,
+        culledByFrustum: hud.culledByFrustum,
+        culledByOcclusion: hud.culledByOcclusion,
+        state: hud.state,
+      },
+      {
+        objectsDrawn: frame.ids.length,
+        objectsTotal: s.objects,
+        trianglesDrawn: tris,
+        trianglesTotal: demo.triangles,
+        culledByFrustum: s.culled_by_frustum,
+        culledByOcclusion: s.culled_by_occlusion,
+        state: "open",
+      },
+      `${where}: HUD`,
+    );
+    assert.ok(Number.isFinite(hud.rttP50) && hud.rttP50 > 0 && hud.rttP95 >= hud.rttP50, `${where}: RTT ${hud.rttP50}/${hud.rttP95}`);
+    assert.ok(hud.adapter.length > 0, "adapter shown");
+    occlusionShare += s.candidates ? s.culled_by_occlusion / s.candidates : 0;
+    log(
+      `${where}: ${frame.ids.length} drawn, ${s.culled_by_frustum} frustum-culled, ${s.culled_by_occlusion} occlusion-culled, ` +
+        `RTT p50 ${hud.rttP50.toFixed(1)} ms`,
+    );
+  }
+  occlusionShare /= steps.length;
+  log(`mean share of in-frustum objects culled by occlusion: ${(100 * occlusionShare).toFixed(1)} %`);
+  assert.ok(occlusionShare > 0, "occlusion culling removed something at street level");
+  assert.deepEqual(consoleErrors, [], "console errors during the walk");
+
+  const frames = (n) => page.evaluate((k) => new Promise((r) => {
+    const tick = () => (--k <= 0 ? r() : requestAnimationFrame(tick));
+    requestAnimationFrame(tick);
+  }), n);
+
+  // Screenshots: normal view, debug view, debug view from above.
+  await page.evaluate(() => window.homcull.setPose([0, 1.7, 0], -90, 0));
+  await page.waitForFunction(() => window.homcull.lastFrame.ack === window.homcull.lastPose.seq && window.homcull.lastPose.position[0] === 0, null, { timeout: STEP_TIMEOUT_MS });
+  await frames(2);
+  await page.screenshot({ path: join(ARTIFACTS, "viewer.png") });
+  await page.click("#debug-toggle");
+  await frames(3);
+  const debugSnap = await page.evaluate(() => ({ drawn: window.homcull.drawnIds(), ids: window.homcull.lastFrame.ids }));
+  assert.deepEqual(debugSnap.drawn, debugSnap.ids, "the debug view draws the same visible set");
+  await page.screenshot({ path: join(ARTIFACTS, "viewer-debug.png") });
+  await page.click("#overview-toggle");
+  await frames(3);
+  await page.screenshot({ path: join(ARTIFACTS, "viewer-debug-above.png") });
+  await page.click("#debug-toggle"); // also leaves the view from above
+  log(`screenshots in ${ARTIFACTS}`);
+
+  // Culling off draws everything, and the HUD says so.
+  await page.click("#culling-toggle");
+  await frames(2);
+  const off = await page.evaluate(() => ({ n: window.homcull.drawnIds().length, hud: window.homcull.hud() }));
+  assert.equal(off.n, objects.length, "culling off draws every object");
+  assert.equal(off.hud.objectsDrawn, objects.length);
+  assert.equal(off.hud.trianglesDrawn, demo.triangles);
+  await page.click("#culling-toggle");
+  await frames(2);
+  const on = await page.evaluate(() => ({ drawn: window.homcull.drawnIds(), ids: window.homcull.lastFrame.ids }));
+  assert.deepEqual(on.drawn, on.ids, "culling back on draws the visible set again");
+  assert.deepEqual(consoleErrors, [], "console errors");
+
+  // The pyramid panel shows images, or says the server has no pyramid view.
+  await page.click("#pyramid-button");
+  await page.waitForFunction(
+    () =>
+      document.querySelectorAll("#pyramid-levels img").length > 0 ||
+      document.getElementById("pyramid-status").textContent.includes("not available"),
+    null,
+    { timeout: STEP_TIMEOUT_MS },
+  );
+  const pyr = await page.evaluate(() => ({
+    images: document.querySelectorAll("#pyramid-levels img").length,
+    status: document.getElementById("pyramid-status").textContent,
+    errors: document.querySelectorAll("#errors .error").length,
+  }));
+  assert.equal(pyr.errors, 0, "no error toast for the pyramid panel");
+  log(`pyramid panel: ${pyr.images} level images; "${pyr.status}"`);
+  await frames(2);
+  await page.screenshot({ path: join(ARTIFACTS, "viewer-pyramid.png") });
+
+  // Errors appear in the page: an unknown scene...
+  const other = await browser.newPage({ viewport: VIEWPORT });
+  await other.goto(`${base}/?scene=no-such-scene`);
+  await other.waitForSelector("#errors .error", { timeout: STEP_TIMEOUT_MS });
+  const unknownText = await other.textContent("#errors");
+  assert.match(unknownText, /unknown scene "no-such-scene"/);
+  await other.close();
+  // ...and a server that goes away.
+  killServer("SIGTERM");
+  await page.waitForFunction(
+    () => window.homcull.hud().state !== "open" && document.querySelector('#errors .error[data-key="connection"]'),
+    null,
+    { timeout: STEP_TIMEOUT_MS },
+  );
+  const downText = await page.textContent("#errors");
+  log(`server stopped; the page says: ${downText.trim().replace(/\s+/g, " ").slice(0, 160)}`);
+  await page.screenshot({ path: join(ARTIFACTS, "viewer-server-down.png") });
+}
+
+const timer = setTimeout(() => {
+  console.error(`e2e: FAILED: timed out after ${TOTAL_TIMEOUT_MS / 1000} s`);
+  finish(1);
+}, TOTAL_TIMEOUT_MS);
+
+let finished = false;
+async function finish(code) {
+  if (finished) return;
+  finished = true;
+  clearTimeout(timer);
+  killServer("SIGTERM");
+  const closing = browser ? browser.close().catch(() => {}) : Promise.resolve();
+  await Promise.race([closing, sleep(10_000)]);
+  if (server && server.exitCode === null && server.signalCode === null) {
+    await Promise.race([new Promise((r) => server.once("exit", r)), sleep(5_000)]);
+    killServer("SIGKILL");
+  }
+  if (dataDir) rmSync(dataDir, { recursive: true, force: true });
+  if (code !== 0 && serverLog) {
+    try {
+      mkdirSync(ARTIFACTS, { recursive: true });
+      writeFileSync(join(ARTIFACTS, "server.log"), serverLog);
+    } catch {
+      /* best effort */
+    }
+    console.error(`e2e: last server output:\n${serverLog.slice(-4000)}`);
+  }
+  process.exit(code);
+}
+
+const started = Date.now();
+main().then(
+  () => {
+    log(`PASSED in ${((Date.now() - started) / 1000).toFixed(1)} s`);
+    finish(0);
+  },
+  (e) => {
+    console.error(`e2e: FAILED: ${e?.stack ?? e}`);
+    finish(1);
+  },
+);
