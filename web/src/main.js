@@ -612,13 +612,13 @@ function ensureDebugGroup() {
 const fmtInt = (v) => Number(v).toLocaleString("en-US");
 const fmtMs = (v) => (Number.isFinite(v) ? v.toFixed(1) : "\u2013");
 
+/** Shows `format(value)` in HUD element `id`, keeping the raw value in `data-value`. */
 function setHud(id, value, format) {
   const el = $(id);
   const raw = String(value);
-  if (el.dataset.value === raw && el.dataset.init) return;
-  el.dataset.value = raw;
-  el.dataset.init = "1";
-  el.textContent = format(value);
+  const text = format(value);
+  if (el.dataset.value !== raw) el.dataset.value = raw;
+  if (el.textContent !== text) el.textContent = text;
 }
 
 function updateHud() {

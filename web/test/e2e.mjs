@@ -299,6 +299,40 @@ async function main() {
   await frames(2);
   await page.screenshot({ path: join(ARTIFACTS, "viewer-pyramid.png") });
 
+  // The panel against the contract of POST /v1/scenes/{id}/pyramid, with a stub answer.
+  const PNG_1X1 =
+    "data:image/png;base64,iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mP8z8DwHwAFBQIAX8jx0gAAAABJRU5ErkJggg==";
+  const stub = await browser.newPage({ viewport: VIEWPORT });
+  const asked = [];
+  await stub.route("**/v1/scenes/demo/pyramid", (route) => {
+    asked.push(JSON.parse(route.request().postData()));
+    return route.fulfill({
+      status: 200,
+      contentType: "application/json",
+      body: JSON.stringify({
+        levels: [
+          { level: 0, width: 8, height: 4, png: PNG_1X1 },
+          { level: 1, width: 4, height: 2, png: PNG_1X1 },
+        ],
+      }),
+    });
+  });
+  await stub.goto(`${base}/`);
+  await stub.evaluate(() => window.homcull.ready);
+  await stub.click("#pyramid-button");
+  await stub.waitForFunction(
+    () => [...document.querySelectorAll("#pyramid-levels img")].filter((i) => i.complete && i.naturalWidth > 0).length === 2,
+    null,
+    { timeout: STEP_TIMEOUT_MS },
+  );
+  const stubPose = await stub.evaluate(() => window.homcull.lastPose);
+  assert.ok(asked.length >= 1, "the panel asked for the pyramid");
+  const { seq: _seq, wantFull: _wf, ...sentPose } = stubPose;
+  assert.deepEqual(asked[0], { pose: sentPose }, "the pyramid request carries the pose the page sent");
+  assert.match(await stub.textContent("#pyramid-levels"), /level 0: 8×4[\s\S]*level 1: 4×2/);
+  await stub.close();
+  log("pyramid panel renders a stubbed answer of the documented shape");
+
   // Errors appear in the page: an unknown scene...
   const other = await browser.newPage({ viewport: VIEWPORT });
   await other.goto(`${base}/?scene=no-such-scene`);
