@@ -174,6 +174,12 @@ pub trait Culler {
             use rayon::prelude::*;
             cams.par_iter().map(|c| plan(prep, c, s)).collect()
         };
+        tracing::debug!(
+            target: "homcull::timing",
+            poses = cams.len(),
+            plan_ms = start.elapsed().as_secs_f64() * 1e3,
+            "planned a batch"
+        );
         let mut masks = Vec::with_capacity(plans.len());
         let mut image_ms = 0.0;
         if s.options.method != Method::Frustum {

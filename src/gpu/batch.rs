@@ -207,7 +207,9 @@ impl GpuBackend {
         });
         let mut encoder = encoder;
         encoder.copy_buffer_to_buffer(src, 0, &staging, 0, size);
+        let t = std::time::Instant::now();
         self.ctx.queue.submit([encoder.finish()]);
+        let submit_ms = t.elapsed().as_secs_f64() * 1e3;
         let (tx, rx) = std::sync::mpsc::channel();
         staging.slice(..).map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
@@ -218,6 +220,12 @@ impl GpuBackend {
         rx.recv()
             .map_err(|e| GpuError::Readback(e.to_string()))?
             .map_err(|e| GpuError::Readback(e.to_string()))?;
+        tracing::debug!(
+            target: "homcull::timing",
+            submit_ms,
+            wait_ms = t.elapsed().as_secs_f64() * 1e3 - submit_ms,
+            "GPU submission and readback"
+        );
         let data = staging
             .slice(..)
             .get_mapped_range()
@@ -260,6 +268,7 @@ impl GpuBackend {
         plans: &[PosePlan],
         s: &CullSettings,
     ) -> Result<Vec<Vec<u32>>, GpuError> {
+        let started = std::time::Instant::now();
         let (w, h) = (plans[0].cam.width, plans[0].cam.height);
         self.targets(w, h);
         let t = self.targets.as_ref().expect("targets exist");
@@ -512,6 +521,12 @@ impl GpuBackend {
                     .record(&mut encoder, &test_bg, g as u32, group_params[g].b);
             }
         }
+        tracing::debug!(
+            target: "homcull::timing",
+            poses = p_count,
+            record_ms = started.elapsed().as_secs_f64() * 1e3,
+            "recorded a batch"
+        );
         let bytes = self.read_buffer(encoder, &mask, (p_count * words) as u64 * 4)?;
         let all: &[u32] = bytemuck::cast_slice(&bytes);
         Ok(all

@@ -18,6 +18,9 @@ const DEFAULT_FAR = 5000;
 const $ = (id) => document.getElementById(id);
 const query = new URLSearchParams(location.search);
 
+// app.js is running: the boot panel's "app.js did not load" hint no longer applies.
+for (const el of document.querySelectorAll("#boot .hint")) el.hidden = true;
+
 // --- errors shown in the page --------------------------------------------------------
 
 const errorBox = $("errors");
@@ -279,17 +282,17 @@ async function start() {
       opt.textContent = `${s.name || s.id} (${s.objects.toLocaleString("en-US")} objects)`;
       select.append(opt);
     }
+    select.onchange = () => {
+      const q = new URLSearchParams(location.search);
+      q.set("scene", select.value);
+      location.search = q.toString();
+    };
     const wanted = query.get("scene");
     const info = wanted ? scenes.find((s) => s.id === wanted) : (scenes.find((s) => s.id === "demo") ?? scenes[0]);
     if (!info) {
       throw new Error(wanted ? `unknown scene "${wanted}": this server has ${scenes.map((s) => s.id).join(", ") || "no scenes"}` : "this server has no scenes yet: upload a GLB with POST /v1/scenes");
     }
     select.value = info.id;
-    select.onchange = () => {
-      const q = new URLSearchParams(location.search);
-      q.set("scene", select.value);
-      location.search = q.toString();
-    };
     app.sceneId = info.id;
     app.sceneInfo = info;
     for (const w of info.warnings ?? []) showError(`warn:${w}`, `scene ${info.id}: ${w}`, { warn: true, log: false });
@@ -321,6 +324,7 @@ async function start() {
     app.groundY = lo[1];
     const diag = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
     camera.far = Math.min(Math.max(DEFAULT_FAR, diag * 2), NEAR * 1e7);
+    camera.updateProjectionMatrix();
     scene3.fog = new THREE.Fog(SKY, Math.max(200, diag * 0.25), Math.max(1500, diag * 1.5));
     startPose(info);
 
@@ -335,6 +339,12 @@ async function start() {
   } catch (e) {
     bootMessage.textContent = e.message;
     showError("load", e.message);
+    const select = $("scene-select");
+    if (select.options.length) {
+      // Let the user pick another scene.
+      if (!app.sceneId) select.selectedIndex = -1;
+      $("toolbar").hidden = false;
+    }
     rejectReady(e);
   }
 }
@@ -633,7 +643,9 @@ function updateHud() {
     setHud("hud-culled-frustum", s.culled_by_frustum, fmtInt);
     setHud("hud-culled-occlusion", s.culled_by_occlusion, fmtInt);
     $("hud-culled-frustum-pct").textContent = pct(s.culled_by_frustum);
-    $("hud-culled-occlusion-pct").textContent = pct(s.culled_by_occlusion);
+    $("hud-culled-occlusion-pct").textContent = s.candidates
+      ? `(${((100 * s.culled_by_occlusion) / s.candidates).toFixed(0)} % of those in view)`
+      : "";
     setHud("hud-cull-ms", s.total_us / 1000, fmtMs);
     setHud("hud-gpu-ms", s.gpu_us / 1000, fmtMs);
   } else {

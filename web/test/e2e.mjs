@@ -339,6 +339,7 @@ async function main() {
   await other.waitForSelector("#errors .error", { timeout: STEP_TIMEOUT_MS });
   const unknownText = await other.textContent("#errors");
   assert.match(unknownText, /unknown scene "no-such-scene"/);
+  await other.screenshot({ path: join(ARTIFACTS, "viewer-unknown-scene.png") });
   await other.close();
   // ...and a server that goes away.
   killServer("SIGTERM");
