@@ -15,7 +15,8 @@ use crate::occluders::OccluderParams;
 use crate::scene::Scene;
 
 pub struct Engine {
-    pub prepared: PreparedScene,
+    /// Shared so that read-only work (the pyramid debug view) runs beside the GPU worker.
+    pub prepared: Arc<PreparedScene>,
     backend: Box<dyn Culler + Send>,
     /// True when no GPU was available and the CPU reference runs.
     pub cpu_fallback: bool,
@@ -37,7 +38,7 @@ impl Engine {
             None => (Box::new(CpuBackend), true),
         };
         Engine {
-            prepared,
+            prepared: Arc::new(prepared),
             backend,
             cpu_fallback,
         }

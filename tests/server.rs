@@ -182,6 +182,42 @@ async fn every_route_and_every_error() {
         "a street-level pose hides something"
     );
 
+    // The pyramid debug view: one PNG per level, level 0 at the viewport size.
+    let pyr: Value = http
+        .post(srv.url("/v1/scenes/demo/pyramid"))
+        .json(&json!({"pose": pose_json(&poses[0])}))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    let levels = pyr["levels"].as_array().expect("levels");
+    assert_eq!(
+        levels.len(),
+        homcull::hom::pyramid::LevelLayout::new(320, 180).levels()
+    );
+    assert_eq!(
+        (levels[0]["width"].as_u64(), levels[0]["height"].as_u64()),
+        (Some(320), Some(180))
+    );
+    let last = levels.last().unwrap();
+    assert_eq!(
+        (last["width"].as_u64(), last["height"].as_u64()),
+        (Some(1), Some(1))
+    );
+    for l in levels {
+        let url = l["png"].as_str().unwrap();
+        let b64 = url
+            .strip_prefix("data:image/png;base64,")
+            .expect("a PNG data URL");
+        use base64::Engine as _;
+        let bytes = base64::engine::general_purpose::STANDARD
+            .decode(b64)
+            .unwrap();
+        assert_eq!(&bytes[1..4], b"PNG");
+    }
+
     // Errors: each gets its JSON error, and the server carries on.
     let cull = srv.url("/v1/scenes/demo/cull");
     let post = |url: String, body: String| {

@@ -109,6 +109,10 @@ pub fn app(state: AppState) -> Router {
             "/v1/scenes/{id}/cull/batch",
             post(routes::cull_batch).layer(json_limit),
         )
+        .route(
+            "/v1/scenes/{id}/pyramid",
+            post(routes::pyramid).layer(json_limit),
+        )
         .route("/v1/scenes/{id}/stream", get(ws::stream))
         .layer(TimeoutLayer::with_status_code(
             axum::http::StatusCode::REQUEST_TIMEOUT,

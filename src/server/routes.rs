@@ -301,3 +301,96 @@ pub async fn cull_batch(
         results: out.into_iter().map(response).collect(),
     }))
 }
+
+/// The largest viewport the pyramid view renders (it runs the CPU reference).
+const PYRAMID_MAX_PIXELS: u64 = 1920 * 1080;
+
+/// One level of the occlusion pyramid as a PNG data URL (opacity, white = covered).
+#[derive(Debug, serde::Serialize, utoipa::ToSchema)]
+pub struct PyramidLevel {
+    pub level: u32,
+    pub width: u32,
+    pub height: u32,
+    pub png: String,
+}
+
+/// The occlusion-map pyramid of one pose, for the viewer's debug panel.
+///
+/// Computed by the CPU reference of the occluder raster and pyramid passes (the GPU
+/// passes are tested equal to it), beside the GPU worker so culling is not held up.
+#[utoipa::path(post, path = "/v1/scenes/{id}/pyramid", params(("id" = String, Path, description = "scene id")),
+    request_body = CullRequest,
+    responses((status = 200, description = "{\"levels\": [{\"level\", \"width\", \"height\", \"png\"}]}"),
+        (status = 400, body = homcull_proto::ErrorBody), (status = 404, body = homcull_proto::ErrorBody)))]
+pub async fn pyramid(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    body: Result<Bytes, BytesRejection>,
+) -> Result<Json<serde_json::Value>, ApiError> {
+    let req: CullRequest = ApiError::parse_json(&body.map_err(body_error)?)?;
+    let cam = Camera::new(&req.pose)?;
+    if cam.width as u64 * cam.height as u64 > PYRAMID_MAX_PIXELS {
+        return Err(ApiError::bad_request(
+            "invalid_pose",
+            format!("the pyramid view renders at most {PYRAMID_MAX_PIXELS} pixels"),
+        ));
+    }
+    let scene = state.scene(&id)?;
+    let prepared = scene
+        .engine
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .prepared
+        .clone();
+    let budget = state.config.budget;
+    let levels = tokio::task::spawn_blocking(move || {
+        use crate::cull::{CpuBackend, CullSettings, plan};
+        use crate::hom::pyramid::{self, LevelLayout};
+        let mut settings = CullSettings::new(req.options, &prepared);
+        settings.budget_triangles = budget;
+        let p = plan(&prepared, &cam, &settings);
+        let layout = LevelLayout::new(cam.width, cam.height);
+        let (opacity, _depth) =
+            pyramid::build(&layout, &CpuBackend::occluder_depth(&prepared.scene, &p));
+        (0..layout.levels())
+            .map(|l| {
+                let (w, h) = layout.dims[l];
+                let start = layout.index(l, 0, 0);
+                let pixels: Vec<u8> = opacity[start..start + (w * h) as usize]
+                    .iter()
+                    .map(|&o| (o.clamp(0.0, 1.0) * 255.0).round() as u8)
+                    .collect();
+                PyramidLevel {
+                    level: l as u32,
+                    width: w,
+                    height: h,
+                    png: png_data_url(w, h, &pixels),
+                }
+            })
+            .collect::<Vec<_>>()
+    })
+    .await
+    .map_err(|e| ApiError::internal(format!("pyramid task failed: {e}")))?;
+    Ok(Json(serde_json::json!({ "levels": levels })))
+}
+
+/// Encodes 8-bit grey pixels as a `data:image/png;base64,` URL.
+fn png_data_url(w: u32, h: u32, pixels: &[u8]) -> String {
+    use base64::Engine as _;
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, w, h);
+        enc.set_color(png::ColorType::Grayscale);
+        enc.set_depth(png::BitDepth::Eight);
+        let written = enc
+            .write_header()
+            .and_then(|mut wr| wr.write_image_data(pixels));
+        if let Err(e) = written {
+            tracing::warn!("PNG encoding failed: {e}");
+        }
+    }
+    format!(
+        "data:image/png;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(out)
+    )
+}
