@@ -21,6 +21,8 @@ fn main() -> Result<()> {
                 .unwrap_or_else(|_| "homcull=info,wgpu=error".into()),
         )
         .with_writer(std::io::stderr)
+        // Colours only on a terminal: container logs stay plain text.
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
     let cli = Cli::parse();
     match cli.command {

@@ -40,6 +40,11 @@ Remapping (what differs from a real container, and why):
     without unshare) the check falls back to comparing snapshots of the tree around the
     data dir and of the repository's top level before and after the run, and says so.
 
+The WebSocket client is this file's own (RFC 6455 over a socket, standard library only),
+and so is its codec of the binary frames; before any check runs, the codec is tested
+against proto/tests/golden/. It understands wire versions 1 and 2 and speaks the version
+of the server's Hello.
+
 Usage: python3 tests/deploy_runtime.py [--bin PATH] [--only run_as_image|scale_out]
 Exit status: 0 passed; 1 failed; 2 a prerequisite is missing (nginx, setpriv, ...).
 Everything listens on 127.0.0.1 only; each check is bounded (90 s) and every process it
@@ -207,6 +212,7 @@ class WebSocket:
         self.sock.settimeout(timeout)
         self.buf = b""
         self.closed = False
+        self.version: int | None = None  # wire protocol version, from the server's Hello
         key = base64.b64encode(os.urandom(16)).decode()
         self.sock.sendall((f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n"
                            "Upgrade: websocket\r\nConnection: Upgrade\r\n"
@@ -303,48 +309,111 @@ class WebSocket:
 
 
 # --------------------------------------------------------------------------- binary frames
-# Layout: proto/src/frame.rs (module docs); vectors: proto/tests/golden/.
+# Layout: proto/src/frame.rs (module docs); vectors: proto/tests/golden/. Both wire versions
+# are understood: 1 (6-word header with kind and payload_words words, 8 stats words, two
+# delta count words) and 2 (4-word header with `version | kind << 16`, 5 stats words, one
+# delta count word `added | removed << 16`). The low 16 bits of word 1 are the version in
+# both; a client speaks the version of the server's Hello. `check_codec` tests this codec
+# against the golden vectors before anything else runs.
 
 MAGIC = 0x4C434D48
-VERSION = 1
+VERSIONS = (1, 2)
 HELLO, POSE, FULL, DELTA, ERROR = 1, 2, 3, 4, 5
-STATS = ("objects", "candidates", "culled_by_frustum", "culled_by_occlusion", "occluders_used",
-         "dropped_poses", "gpu_us", "total_us")
+KIND_NAMES = {HELLO: "hello", POSE: "pose", FULL: "full", DELTA: "delta", ERROR: "error"}
+STATS = {
+    1: ("objects", "candidates", "culled_by_frustum", "culled_by_occlusion", "occluders_used",
+        "dropped_poses", "gpu_us", "total_us"),
+    2: ("candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us"),
+}
+GOLDEN = REPO / "proto" / "tests" / "golden"
 
 
 def f32(x: float) -> float:
     return struct.unpack("<f", struct.pack("<f", x))[0]
 
 
-def pose_frame(seq: int, pose: dict, want_full: bool = False) -> bytes:
+def header(version: int, kind: int, seq: int, ack: int, payload_words: int) -> bytes:
+    if version == 1:
+        return struct.pack("<6I", MAGIC, 1, kind, seq, ack, payload_words)
+    return struct.pack("<4I", MAGIC, version | kind << 16, seq, ack)
+
+
+def pose_frame(seq: int, pose: dict, want_full: bool = False, version: int = 1) -> bytes:
     payload = struct.pack("<I3f4ff2I2f", 1 if want_full else 0, *pose["position"], *pose["rotation"],
                           pose["fov_y_deg"], *pose["viewport"], pose["near"], pose["far"])
-    return struct.pack("<6I", MAGIC, VERSION, POSE, seq, 0, len(payload) // 4) + payload
+    return header(version, POSE, seq, 0, len(payload) // 4) + payload
 
 
 def decode_frame(b: bytes) -> dict:
-    expect(len(b) >= 24 and len(b) % 4 == 0, f"frame of {len(b)} bytes")
-    magic, version, kind, seq, ack, words = struct.unpack_from("<6I", b)
-    expect(magic == MAGIC and version == VERSION, f"bad magic/version {magic:#x}/{version}")
-    expect(words * 4 == len(b) - 24, "payload_words does not match the frame length")
-    w = struct.unpack_from(f"<{words}I", b, 24)
-    f = {"kind": kind, "seq": seq, "ack": ack}
-    if kind == HELLO:
-        f["object_count"], n = w[0], w[1]
-        f["info"] = json.loads(b[32:32 + n].decode())
-    elif kind in (FULL, DELTA):
-        f["stats"] = dict(zip(STATS, w[:8]))
-        if kind == FULL:
-            f["ids"] = list(w[9:9 + w[8]])
-        else:
-            na, nr = w[8], w[9]
-            f["added"], f["removed"] = list(w[10:10 + na]), list(w[10 + na:10 + na + nr])
-    elif kind == ERROR:
-        f["code"], n = w[0], w[1]
-        f["message"] = b[32:32 + n].decode("utf-8", "replace")
+    expect(len(b) >= 16 and len(b) % 4 == 0, f"frame of {len(b)} bytes")
+    magic, w1 = struct.unpack_from("<2I", b)
+    version = w1 & 0xFFFF
+    expect(magic == MAGIC, f"bad magic {magic:#x}")
+    expect(version in VERSIONS, f"wire protocol version {version}: tests/deploy_runtime.py speaks "
+                                f"{VERSIONS}; teach its codec the new layout (proto/src/frame.rs)")
+    if version == 1:
+        expect(len(b) >= 24, f"v1 frame of {len(b)} bytes")
+        _, _, kind, seq, ack, words = struct.unpack_from("<6I", b)
+        expect(words * 4 == len(b) - 24, "payload_words does not match the frame length")
+        off = 24
     else:
-        raise Failed(f"unexpected frame kind {kind} from the server")
+        kind = w1 >> 16
+        seq, ack = struct.unpack_from("<2I", b, 8)
+        off = 16
+    n = (len(b) - off) // 4
+    w = struct.unpack_from(f"<{n}I", b, off)
+    f = {"version": version, "kind": kind, "seq": seq, "ack": ack, "byte_length": len(b)}
+    if kind in (HELLO, ERROR):
+        key, text = ("object_count", "info_json") if kind == HELLO else ("code", "message")
+        f[key], nbytes = w[0], w[1]
+        f[text] = b[off + 8:off + 8 + nbytes].decode()
+        expect(off + 8 + (nbytes + 3) // 4 * 4 == len(b), f"{KIND_NAMES[kind]} frame length mismatch")
+        if kind == HELLO:
+            f["info"] = json.loads(f["info_json"])
+    elif kind in (FULL, DELTA):
+        names = STATS[version]
+        f["stats"] = dict(zip(names, w[:len(names)]))
+        c = len(names)
+        if kind == FULL:
+            f["ids"] = list(w[c + 1:c + 1 + w[c]])
+            expect(c + 1 + w[c] == n, "full frame length mismatch")
+        else:
+            if version == 1:
+                na, nr, c = w[c], w[c + 1], c + 2
+            else:
+                na, nr, c = w[c] & 0xFFFF, w[c] >> 16, c + 1
+            f["added"], f["removed"] = list(w[c:c + na]), list(w[c + na:c + na + nr])
+            expect(c + na + nr == n, "delta frame length mismatch")
+    elif kind == POSE:
+        flags, *rest = struct.unpack_from("<I3f4ff2I2f", b, off)
+        f.update(want_full=bool(flags & 1), position=rest[0:3], rotation=rest[3:7], fov_y_deg=rest[7],
+                 viewport=rest[8:10], near=rest[10], far=rest[11])
+    else:
+        raise Failed(f"unknown frame kind {kind}")
     return f
+
+
+def check_codec() -> str:
+    """This file's codec against proto/tests/golden/ (whatever version they are in)."""
+    meta = json.loads((GOLDEN / "frames.json").read_text())
+    version = meta.get("protocol_version", 1)
+    for g in meta["frames"]:
+        raw = bytes.fromhex("".join((GOLDEN / g["file"]).read_text().split()))
+        where = f"golden {g['file']}"
+        f = decode_frame(raw)
+        expect(f["version"] == version, f"{where}: version {f['version']} != {version}")
+        expect(KIND_NAMES.get(f["kind"]) == g["kind"], f"{where}: kind {f['kind']} != {g['kind']}")
+        for k in ("seq", "ack", "byte_length", "object_count", "info_json", "code", "message", "ids",
+                  "added", "removed"):
+            if k in g:
+                expect(f.get(k) == g[k], f"{where}: {k} {f.get(k)!r} != {g[k]!r}")
+        for k, v in g.get("stats", {}).items():
+            if k in f["stats"]:
+                expect(f["stats"][k] == v, f"{where}: stats.{k} {f['stats'][k]} != {v}")
+        if g["kind"] == "pose":
+            enc = pose_frame(g["seq"], g, g["want_full"], version)
+            expect(enc == raw, f"{where}: encoding the pose gives {enc.hex()}, expected {raw.hex()}")
+    return f"codec agrees with {len(meta['frames'])} golden frames (protocol version {version})"
 
 
 def apply(visible: list[int], frame: dict) -> list[int]:
@@ -356,9 +425,21 @@ def apply(visible: list[int], frame: dict) -> list[int]:
 
 def recv_frame(ws: WebSocket) -> dict:
     f = decode_frame(ws.recv())
-    if f["kind"] == ERROR:
+    if f["kind"] == HELLO:
+        ws.version = f["version"]  # speak the server's version
+        pv = f["info"].get("protocol_version")
+        expect(pv in (None, f["version"]), f"hello: header version {f['version']}, JSON protocol_version {pv}")
+    elif f["kind"] == ERROR:
         raise Failed(f"server sent an error frame: code {f['code']}: {f['message']}")
+    else:
+        expect(f["kind"] in (FULL, DELTA), f"server sent a {KIND_NAMES.get(f['kind'])} frame")
+        expect(f["version"] == ws.version, f"frame version {f['version']} != the hello's {ws.version}")
     return f
+
+
+def send_pose(ws: WebSocket, seq: int, pose: dict, want_full: bool = False) -> None:
+    expect(ws.version is not None, "sending a pose before the hello")
+    ws.send_binary(pose_frame(seq, pose, want_full, ws.version))
 
 
 def recv_answer(ws: WebSocket, seq: int) -> dict:
@@ -533,7 +614,8 @@ def run_as_image(bin_path: str) -> None:
     dl = Deadline(TIME_LIMIT_S, "run_as_image")
     img = Image()
     binfo_help = subprocess.run([bin_path, "serve", "--help"], capture_output=True, text=True, timeout=30,
-                                env={**os.environ, "NO_COLOR": "1"})
+                                env={**{k: v for k, v in os.environ.items() if not k.startswith("HOMCULL_")},
+                                     "NO_COLOR": "1"})
     expect(binfo_help.returncode == 0, f"`homcull serve --help` failed: {binfo_help.stderr[-500:]}")
     defaults = dc.parse_clap_help(binfo_help.stdout)
     grace = float(img.env.get("HOMCULL_SHUTDOWN_GRACE_S") or defaults.get("HOMCULL_SHUTDOWN_GRACE_S") or 10)
@@ -674,10 +756,11 @@ def run_as_image(bin_path: str) -> None:
         ws = WebSocket(port, f"/v1/scenes/{scene_id}/stream", timeout=15)
         hello = recv_frame(ws)
         expect(hello["kind"] == HELLO, f"first frame is not hello: {hello}")
-        ws.send_binary(pose_frame(1, yaw_pose((-60.0, 1.7, 0.0), -1.5707964), want_full=True))
+        send_pose(ws, 1, yaw_pose((-60.0, 1.7, 0.0), -1.5707964), want_full=True)
         first = recv_answer(ws, 1)
         expect(first["kind"] == FULL, f"first answer is not a full frame: {first}")
-        log(f"ok    WebSocket /v1/scenes/{scene_id}/stream: hello, full frame of {len(first['ids'])} ids")
+        log(f"ok    WebSocket /v1/scenes/{scene_id}/stream (wire protocol v{ws.version}): hello, "
+            f"full frame of {len(first['ids'])} ids")
 
         t_sig = time.monotonic()
         os.kill(proc.pid, img.stopsignal)
@@ -882,7 +965,7 @@ def scale_out(bin_path: str) -> None:
         seq = 0
         for k in range(5):
             seq += 1
-            ws.send_binary(pose_frame(seq, walk[k]))
+            send_pose(ws, seq, walk[k])
             visible = apply(visible, recv_answer(ws, seq))
         serving = wait_for(lambda: [r for r in reps if metric(f"http://127.0.0.1:{r[1]}", "homcull_ws_clients") >= 1],
                            10, "a replica to report the WebSocket client in homcull_ws_clients")
@@ -890,12 +973,12 @@ def scale_out(bin_path: str) -> None:
         victim_name, victim_port, victim = serving[0]
         expect(visible == rest_cull(victim_port, walk[4]),
                "the stream's visible set (full + deltas) differs from a REST cull of the same pose")
-        log(f"ok    WebSocket through nginx on {victim_name} (:{victim_port}, homcull_ws_clients 1): "
-            f"5 poses, deltas applied == REST cull")
+        log(f"ok    WebSocket through nginx (wire protocol v{ws.version}) on {victim_name} (:{victim_port}, "
+            f"homcull_ws_clients 1): 5 poses, deltas applied == REST cull")
 
         # Keep streaming; SIGKILL the serving replica with a pose in flight.
         seq += 1
-        ws.send_binary(pose_frame(seq, walk[5]))
+        send_pose(ws, seq, walk[5])
         os.kill(victim.pid, signal.SIGKILL)
         t_kill = time.monotonic()
         victim.wait(timeout=10)
@@ -909,7 +992,7 @@ def scale_out(bin_path: str) -> None:
                 except socket.timeout:
                     break
                 seq += 1
-                ws.send_binary(pose_frame(seq, walk[k % len(walk)]))
+                send_pose(ws, seq, walk[k % len(walk)])
                 k += 1
         except WsClosed as e:
             noticed = e
@@ -929,7 +1012,7 @@ def scale_out(bin_path: str) -> None:
         t_reconnect = time.monotonic() - t
         survivors = [r for r in reps if r[2] is not victim]
         seq += 1
-        ws.send_binary(pose_frame(seq, walk[20], want_full=True))
+        send_pose(ws, seq, walk[20], want_full=True)
         full = recv_answer(ws, seq)
         expect(full["kind"] == FULL, f"asked for a full frame, got kind {full['kind']}")
         now_serving = [r for r in survivors if metric(f"http://127.0.0.1:{r[1]}", "homcull_ws_clients") >= 1]
@@ -943,7 +1026,7 @@ def scale_out(bin_path: str) -> None:
         visible = full["ids"]
         for k in range(21, 26):
             seq += 1
-            ws.send_binary(pose_frame(seq, walk[k]))
+            send_pose(ws, seq, walk[k])
             visible = apply(visible, recv_answer(ws, seq))
         expect(visible == rest_cull(new_port, walk[25]), "the stream after the reconnect drifted from REST")
         log(f"ok    reconnected through nginx in {t_reconnect:.2f} s to {new_name} (:{new_port}); full frame "
@@ -988,6 +1071,11 @@ def main() -> int:
         raise Failed(f"the check took longer than {TIME_LIMIT_S:.0f} s")
 
     signal.signal(signal.SIGALRM, alarm)
+    try:
+        log(f"ok    {check_codec()}")
+    except Failed as e:
+        log(f"FAIL  the WebSocket codec of this script: {e}")
+        return 1
     names = args.only or list(CHECKS)
     failed, missing = [], []
     for name in names:

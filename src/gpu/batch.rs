@@ -125,15 +125,35 @@ impl SlotTargets {
     }
 }
 
-/// The GPU culler of one scene: pipelines, scene buffers and reusable targets.
-pub struct GpuBackend {
-    ctx: Arc<GpuContext>,
-    scene: SceneBuffers,
+/// Pipelines and render targets shared by every scene on one device. Pipelines are
+/// compiled once; the slot targets are written and consumed within one submission, so
+/// one set serves every scene, and a server with many scenes holds it once.
+pub struct SharedPasses {
     raster: RasterPass,
     pyramid: PyramidPass,
     test: TestPass,
     oracle: OraclePass,
-    targets: Option<SlotTargets>,
+    /// Slot targets of the last viewport size, and the lock that serialises batches.
+    targets: std::sync::Mutex<Option<SlotTargets>>,
+}
+
+impl SharedPasses {
+    fn new(ctx: &GpuContext) -> Self {
+        SharedPasses {
+            raster: RasterPass::new(ctx),
+            pyramid: PyramidPass::new(ctx),
+            test: TestPass::new(ctx),
+            oracle: OraclePass::new(ctx),
+            targets: Default::default(),
+        }
+    }
+}
+
+/// The GPU culler of one scene: its buffers, and the device's shared passes.
+pub struct GpuBackend {
+    ctx: Arc<GpuContext>,
+    scene: SceneBuffers,
+    passes: Arc<SharedPasses>,
     /// `(first_index, index_count)` of every object, for draw calls.
     draws: Vec<(u32, u32)>,
 }
@@ -161,11 +181,10 @@ impl GpuBackend {
     pub fn new(ctx: Arc<GpuContext>, prep: &PreparedScene) -> Self {
         GpuBackend {
             scene: SceneBuffers::new(&ctx.device, &prep.scene),
-            raster: RasterPass::new(&ctx),
-            pyramid: PyramidPass::new(&ctx),
-            test: TestPass::new(&ctx),
-            oracle: OraclePass::new(&ctx),
-            targets: None,
+            passes: ctx
+                .shared_passes
+                .get_or_init(|| Arc::new(SharedPasses::new(&ctx)))
+                .clone(),
             draws: prep
                 .scene
                 .objects
@@ -180,15 +199,21 @@ impl GpuBackend {
         &self.ctx
     }
 
-    fn targets(&mut self, width: u32, height: u32) -> &SlotTargets {
-        if self
+    /// Locks the shared slot targets (serialising batches on this device), sized for
+    /// `width` × `height`.
+    fn targets(&self, width: u32, height: u32) -> std::sync::MutexGuard<'_, Option<SlotTargets>> {
+        let mut t = self
+            .passes
             .targets
-            .as_ref()
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        if t.as_ref()
             .is_none_or(|t| (t.width, t.height) != (width, height))
         {
-            self.targets = Some(SlotTargets::new(&self.ctx.device, width, height));
+            *t = None; // free the old targets before allocating new ones
+            *t = Some(SlotTargets::new(&self.ctx.device, width, height));
         }
-        self.targets.as_ref().expect("just created")
+        t
     }
 
     /// Reads back a buffer region (blocking); used for the bitmask and by tests.
@@ -243,15 +268,16 @@ impl GpuBackend {
         plans: &[PosePlan],
         s: &CullSettings,
     ) -> Result<(Vec<f32>, Vec<f32>), GpuError> {
-        let slots = self.targets(plans[0].cam.width, plans[0].cam.height).slots;
+        let guard = self.targets(plans[0].cam.width, plans[0].cam.height);
+        let slots = guard.as_ref().expect("targets exist").slots;
         if plans.len() > slots as usize {
             return Err(GpuError::Readback(format!(
                 "{} poses do not fit the {slots} pyramid slots",
                 plans.len()
             )));
         }
-        self.record_and_read(plans, s)?;
-        let t = self.targets.as_ref().expect("targets exist after a batch");
+        self.record_with(guard.as_ref().expect("targets exist"), plans, s)?;
+        let t = guard.as_ref().expect("targets exist after a batch");
         let size = t.layout.total as u64 * plans.len() as u64 * 4;
         let enc = self.ctx.device.create_command_encoder(&Default::default());
         let opacity = self.read_buffer(enc, &t.opacity, size)?;
@@ -268,10 +294,19 @@ impl GpuBackend {
         plans: &[PosePlan],
         s: &CullSettings,
     ) -> Result<Vec<Vec<u32>>, GpuError> {
+        let guard = self.targets(plans[0].cam.width, plans[0].cam.height);
+        self.record_with(guard.as_ref().expect("targets exist"), plans, s)
+    }
+
+    /// Records, submits and reads back one batch on the (locked) slot targets `t`.
+    fn record_with(
+        &self,
+        t: &SlotTargets,
+        plans: &[PosePlan],
+        s: &CullSettings,
+    ) -> Result<Vec<Vec<u32>>, GpuError> {
         let started = std::time::Instant::now();
         let (w, h) = (plans[0].cam.width, plans[0].cam.height);
-        self.targets(w, h);
-        let t = self.targets.as_ref().expect("targets exist");
         let device = &self.ctx.device;
         let p_count = plans.len() as u32;
         let slots = t.slots;
@@ -289,7 +324,7 @@ impl GpuBackend {
         });
         let pose_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("pose"),
-            layout: &self.raster.pose_layout,
+            layout: &self.passes.raster.pose_layout,
             entries: &[wgpu::BindGroupEntry {
                 binding: 0,
                 resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
@@ -375,7 +410,7 @@ impl GpuBackend {
             let ids_view = SlotTargets::array_view(&t.ids);
             let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("oracle"),
-                layout: &self.oracle.layout,
+                layout: &self.passes.oracle.layout,
                 entries: &[
                     wgpu::BindGroupEntry {
                         binding: 0,
@@ -393,7 +428,7 @@ impl GpuBackend {
             });
             for (g, &(a, b)) in groups.iter().enumerate() {
                 for p in a..b {
-                    self.raster.record(
+                    self.passes.raster.record(
                         &mut encoder,
                         RasterKind::ObjectIds,
                         &t.id_layers[(p - a) as usize],
@@ -404,7 +439,9 @@ impl GpuBackend {
                         draw_list(p),
                     );
                 }
-                self.oracle.record(&mut encoder, &bg, g as u32, w, h, b - a);
+                self.passes
+                    .oracle
+                    .record(&mut encoder, &bg, g as u32, w, h, b - a);
             }
         } else {
             let level_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -415,7 +452,7 @@ impl GpuBackend {
             let occlusion_view = SlotTargets::array_view(&t.occlusion);
             let pyr_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("pyramid"),
-                layout: &self.pyramid.layout,
+                layout: &self.passes.pyramid.layout,
                 entries: &[
                     wgpu::BindGroupEntry {
                         binding: 0,
@@ -463,7 +500,7 @@ impl GpuBackend {
             let deb_buf = storage(device, "deb tiles", bytemuck::cast_slice(&deb_tiles));
             let test_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("test"),
-                layout: &self.test.layout,
+                layout: &self.passes.test.layout,
                 entries: &[
                     wgpu::BindGroupEntry {
                         binding: 0,
@@ -505,7 +542,7 @@ impl GpuBackend {
             });
             for (g, &(a, b)) in groups.iter().enumerate() {
                 for p in a..b {
-                    self.raster.record(
+                    self.passes.raster.record(
                         &mut encoder,
                         RasterKind::OccluderDepth,
                         &t.occlusion_layers[(p - a) as usize],
@@ -516,8 +553,11 @@ impl GpuBackend {
                         draw_list(p),
                     );
                 }
-                self.pyramid.record(&mut encoder, &pyr_bg, &t.layout, b - a);
-                self.test
+                self.passes
+                    .pyramid
+                    .record(&mut encoder, &pyr_bg, &t.layout, b - a);
+                self.passes
+                    .test
                     .record(&mut encoder, &test_bg, g as u32, group_params[g].b);
             }
         }

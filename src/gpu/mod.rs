@@ -21,6 +21,8 @@ pub mod test_pass;
 
 pub use batch::GpuBackend;
 
+use std::sync::Arc;
+
 /// Why the GPU could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
@@ -41,6 +43,8 @@ pub struct GpuContext {
     /// indirect execution and a non-zero first instance in indirect draws); without
     /// it, one draw call per object.
     pub indirect_draws: bool,
+    /// Pipelines and targets every scene's backend shares (built on first use).
+    pub(crate) shared_passes: std::sync::OnceLock<Arc<batch::SharedPasses>>,
 }
 
 impl GpuContext {
@@ -90,6 +94,7 @@ impl GpuContext {
             queue,
             info,
             indirect_draws,
+            shared_passes: Default::default(),
         })
     }
 

@@ -47,11 +47,17 @@ impl SceneEntry {
     /// Prepares a scene (occluders from `cache` when it fits) and uploads it to the GPU.
     fn build(
         origin: Origin,
-        scene: Scene,
+        mut scene: Scene,
         params: OccluderParams,
         cache: Option<OccluderCache>,
         gpu: Option<Arc<GpuContext>>,
     ) -> SceneEntry {
+        // glTF extras (e.g. the OpenArena maps' PVS) are for offline evaluation only;
+        // as JSON values they can outweigh the geometry.
+        scene.extras = None;
+        for o in &mut scene.objects {
+            o.extras = None;
+        }
         let occluders = match cache {
             Some(c) if c.matches(&params, scene.objects.len()) => {
                 OccluderDb::from_ids(&scene, params, c.ids)
