@@ -10,32 +10,33 @@
 //!
 //! A frame is a sequence of little-endian `u32` words; an `f32` travels as its IEEE-754
 //! bit pattern (so NaN payloads and the sign of zero survive). The byte length of a frame
-//! is always a multiple of 4. Every frame starts with the same 6-word header:
+//! is always a multiple of 4. Every frame starts with the same 4-word header:
 //!
-//! | word | field           | meaning                                                        |
-//! |-----:|-----------------|----------------------------------------------------------------|
-//! | 0    | `magic`         | [`MAGIC`] `0x4C434D48`: bytes `48 4D 43 4C`, ASCII `HMCL`       |
-//! | 1    | `version`       | [`PROTOCOL_VERSION`] (currently 1)                              |
-//! | 2    | `kind`          | [`FrameKind`]: 1 Hello, 2 Pose, 3 Full, 4 Delta, 5 Error        |
-//! | 3    | `seq`           | the sender's sequence number (see below)                      |
-//! | 4    | `ack`           | Full/Delta/Error: the pose `seq` answered, 0 if none; Hello and Pose: always 0 |
-//! | 5    | `payload_words` | words after the header; header + payload is exactly the frame |
+//! | word | field            | meaning                                                        |
+//! |-----:|------------------|----------------------------------------------------------------|
+//! | 0    | `magic`          | [`MAGIC`] `0x4C434D48`: bytes `48 4D 43 4C`, ASCII `HMCL`       |
+//! | 1    | `version \| kind << 16` | low 16 bits: [`PROTOCOL_VERSION`] (currently 2); high 16 bits: [`FrameKind`], 1 Hello, 2 Pose, 3 Full, 4 Delta, 5 Error |
+//! | 2    | `seq`            | the sender's sequence number (see below)                      |
+//! | 3    | `ack`            | Full/Delta/Error: the pose `seq` answered, 0 if none; Hello and Pose: always 0 |
 //!
 //! `seq` is the client's pose sequence number in a Pose frame, and the server's frame
 //! counter for that client in the frames the server sends.
 //!
-//! The payload follows the header (`[a][b]` is one word each; `ids[n]` is `n` words):
+//! The payload is the rest of the frame: there is no length word, the frame's own length
+//! (a WebSocket message carries exactly one frame) says where it ends. The payload follows
+//! the header (`[a][b]` is one word each; `ids[n]` is `n` words):
 //!
 //! | kind      | direction       | payload                                                                 |
 //! |-----------|-----------------|-------------------------------------------------------------------------|
 //! | 1 Hello   | server → client | `[object_count][json_byte_len]` JSON bytes (UTF-8, zero-padded to a word) |
 //! | 2 Pose    | client → server | `[flags][px][py][pz][qx][qy][qz][qw][fov_y_deg][width][height][near][far]` (13 words) |
-//! | 3 Full    | server → client | stats (8 words) `[count]` `ids[count]`                                   |
-//! | 4 Delta   | server → client | stats (8 words) `[added_count][removed_count]` `added[added_count]` `removed[removed_count]` |
+//! | 3 Full    | server → client | stats (5 words) `[count]` `ids[count]`                                   |
+//! | 4 Delta   | server → client | stats (5 words) `[added_count \| removed_count << 16]` `added[added_count]` `removed[removed_count]` |
 //! | 5 Error   | server → client | `[code][byte_len]` message bytes (UTF-8, zero-padded to a word)          |
 //!
 //! - **Hello**: the JSON is opaque to the codec (the server puts its `SceneInfo` and the
-//!   like there); the decoder only checks that it is UTF-8.
+//!   like there); the decoder only checks that it is UTF-8. `object_count` is also what
+//!   the derived stats below need.
 //! - **Pose**: all fields are `f32` except `flags`, `width` and `height` (`u32`). Bit 0 of
 //!   `flags` asks for a full frame instead of a delta ([`POSE_FLAG_WANT_FULL`]); the other
 //!   bits must be 0. The codec carries the numbers bit-exactly and does not judge them
@@ -43,29 +44,40 @@
 //! - **Full**: the visible object IDs, strictly ascending.
 //! - **Delta**: the IDs that became visible and those that stopped being visible since the
 //!   previous Full/Delta sent to the same client; each list strictly ascending, and no ID
-//!   in both. [`apply_delta`] applies one, [`diff`] computes one.
+//!   in both. Both counts share one word, 16 bits each, so a delta carries at most
+//!   [`MAX_DELTA_IDS`] (65535) IDs per list; a sender whose change is bigger sends a Full
+//!   frame instead ([`VisibleDelta::fits`]). [`apply_delta`] applies one, [`diff`]
+//!   computes one.
 //! - **Error**: an [`ErrorCode`] and a human-readable message.
 //!
-//! The stats block of Full and Delta is 8 `u32` words ([`FrameStats`]):
+//! The stats block of Full and Delta is 5 `u32` words ([`FrameStats`]):
 //!
-//! | word | field                 | meaning                                                       |
-//! |-----:|-----------------------|---------------------------------------------------------------|
-//! | 0    | `objects`             | objects in the scene                                          |
-//! | 1    | `candidates`          | objects whose bounds intersect the view frustum               |
-//! | 2    | `culled_by_frustum`   | objects removed by the frustum test                           |
-//! | 3    | `culled_by_occlusion` | in-frustum objects removed by the occlusion test              |
-//! | 4    | `occluders_used`      | occluders rendered into the occlusion map                     |
-//! | 5    | `dropped_poses`       | superseded poses dropped since the previous frame sent to this client |
-//! | 6    | `gpu_us`              | GPU time in microseconds (saturating)                         |
-//! | 7    | `total_us`            | total cull time in microseconds (saturating)                  |
+//! | word | field            | meaning                                                       |
+//! |-----:|------------------|---------------------------------------------------------------|
+//! | 0    | `candidates`     | objects whose bounds intersect the view frustum               |
+//! | 1    | `occluders_used` | occluders rendered into the occlusion map                     |
+//! | 2    | `dropped_poses`  | superseded poses dropped since the previous frame sent to this client |
+//! | 3    | `gpu_us`         | GPU time in microseconds (saturating)                         |
+//! | 4    | `total_us`       | total cull time in microseconds (saturating)                  |
+//!
+//! The rest is derived by the client and not sent: the scene's object count is the
+//! Hello's `object_count`, objects culled by the frustum test are `object_count −
+//! candidates` ([`FrameStats::culled_by_frustum`]), and in-frustum objects culled by the
+//! occlusion test are `candidates − visible` where `visible` is the size of the visible
+//! set once the frame is applied ([`FrameStats::culled_by_occlusion`]).
 //!
 //! Error codes ([`ErrorCode`]): 1 `malformed_frame`, 2 `unsupported_version`,
 //! 3 `invalid_pose`, 4 `overloaded`, 5 `internal`, 6 `unknown_scene`.
 //!
 //! # Why this shape
 //!
-//! - **A fixed header** lets a receiver dispatch on `kind`, match `ack` to its pose and
-//!   size its buffers from `payload_words` without parsing the rest of the frame.
+//! - **A fixed header** lets a receiver dispatch on `kind` and match `ack` to its pose
+//!   without parsing the rest of the frame.
+//! - **Small deltas**: at walking speed most deltas change nothing or a few IDs, so the
+//!   fixed part dominates their size. Version 2 dropped everything a client can derive or
+//!   read off the message length (version 1 had a separate kind word, a payload-length
+//!   word, three derivable stats words and two count words): an empty delta is 40 bytes
+//!   instead of 64, against 440 bytes for a full frame of 100 visible IDs.
 //! - **Little-endian 32-bit words** are what a browser reads natively: a `DataView` with
 //!   `getUint32(offset, true)` / `getFloat32(offset, true)`, or a `Uint32Array` over the
 //!   frame's `ArrayBuffer` (every frame is word-aligned, and on every browser platform
@@ -84,10 +96,11 @@
 //! reports the first failure as a [`FrameError`]:
 //!
 //! 1. length at most [`MAX_FRAME_BYTES`], at least the header, a multiple of 4;
-//! 2. magic, version, kind, `ack == 0` for Hello and Pose;
-//! 3. `payload_words` equals the words after the header;
-//! 4. the payload: its counts and byte lengths match its size exactly (no trailing words),
-//!    pose flags, error code, zero padding, UTF-8, ascending and disjoint ID lists.
+//! 2. magic, version (low half of word 1), kind (high half), `ack == 0` for Hello and
+//!    Pose;
+//! 3. the payload: its counts and byte lengths match the words after the header exactly
+//!    (no trailing words), pose flags, error code, zero padding, UTF-8, ascending and
+//!    disjoint ID lists.
 //!
 //! [`FrameError::code`] gives the [`ErrorCode`] a server answers a bad frame with.
 //!
@@ -96,18 +109,29 @@
 //! ```
 //! use homcull_proto::frame::{apply_delta, diff, Frame, FrameStats, VisibleDelta, VisibleFull};
 //!
-//! let full = Frame::Full(VisibleFull { seq: 1, ack: 7, stats: FrameStats::default(), ids: vec![2, 3, 9] });
+//! let stats = FrameStats { candidates: 5, ..FrameStats::default() };
+//! let full = Frame::Full(VisibleFull { seq: 1, ack: 7, stats, ids: vec![2, 3, 9] });
 //! let bytes = full.encode();
 //! assert_eq!(&bytes[..4], b"HMCL");
+//! assert_eq!(bytes.len(), 16 + 4 * (5 + 1 + 3));
 //! assert_eq!(Frame::decode(&bytes), Ok(full));
 //!
 //! // The next answer as a delta, and the client applying it.
 //! let (added, removed) = diff(&[2, 3, 9], &[3, 4, 9]);
-//! let delta = VisibleDelta { seq: 2, ack: 8, stats: FrameStats::default(), added, removed };
+//! let delta = VisibleDelta { seq: 2, ack: 8, stats, added, removed };
+//! assert!(delta.fits());
 //! let Ok(Frame::Delta(received)) = Frame::decode(&Frame::Delta(delta).encode()) else { panic!() };
 //! let mut visible = vec![2, 3, 9];
 //! apply_delta(&mut visible, &received).unwrap();
 //! assert_eq!(visible, [3, 4, 9]);
+//!
+//! // Derived stats: a scene of 12 objects, 5 in the frustum, 3 of them visible.
+//! assert_eq!(stats.culled_by_frustum(12), 7);
+//! assert_eq!(received.culled_by_occlusion(visible.len()), 2);
+//!
+//! // A delta with no change is the header, the stats and the counts word: 40 bytes.
+//! let empty = Frame::Delta(VisibleDelta { seq: 3, ack: 9, stats, ..VisibleDelta::default() });
+//! assert_eq!(empty.encoded_len(), 40);
 //! ```
 
 use std::fmt;
@@ -118,8 +142,8 @@ use crate::{PROTOCOL_VERSION, Pose};
 /// little-endian `u32`.
 pub const MAGIC: u32 = 0x4C43_4D48;
 
-/// Words in the frame header.
-pub const HEADER_WORDS: usize = 6;
+/// Words in the frame header: magic, `version | kind << 16`, seq, ack.
+pub const HEADER_WORDS: usize = 4;
 
 /// Bytes in the frame header.
 pub const HEADER_BYTES: usize = HEADER_WORDS * 4;
@@ -129,7 +153,11 @@ pub const HEADER_BYTES: usize = HEADER_WORDS * 4;
 pub const MAX_FRAME_BYTES: usize = 16 << 20;
 
 /// Words in the stats block of Full and Delta frames.
-pub const STATS_WORDS: usize = 8;
+pub const STATS_WORDS: usize = 5;
+
+/// Most IDs a Delta frame carries in each of its lists: both counts share one word,
+/// 16 bits each. A bigger change goes out as a Full frame (see [`VisibleDelta::fits`]).
+pub const MAX_DELTA_IDS: usize = 0xFFFF;
 
 /// Words in a Pose payload.
 pub const POSE_PAYLOAD_WORDS: usize = 13;
@@ -137,7 +165,7 @@ pub const POSE_PAYLOAD_WORDS: usize = 13;
 /// Bit of a Pose frame's `flags` word asking for a full frame; the only bit defined.
 pub const POSE_FLAG_WANT_FULL: u32 = 1;
 
-/// What a frame is (header word 2).
+/// What a frame is (the high 16 bits of header word 1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[repr(u32)]
 pub enum FrameKind {
@@ -240,17 +268,16 @@ impl fmt::Display for ErrorCode {
     }
 }
 
-/// The 8-word statistics block of Full and Delta frames, in wire order.
+/// The 5-word statistics block of Full and Delta frames, in wire order.
+///
+/// Only what a client cannot work out itself travels: the scene's object count is in the
+/// [`Hello`], and the objects culled by each test follow from it, `candidates` and the
+/// size of the visible set ([`FrameStats::culled_by_frustum`],
+/// [`FrameStats::culled_by_occlusion`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
 pub struct FrameStats {
-    /// Objects in the scene.
-    pub objects: u32,
     /// Objects whose bounds intersect the view frustum.
     pub candidates: u32,
-    /// Objects removed by the frustum test.
-    pub culled_by_frustum: u32,
-    /// In-frustum objects removed by the occlusion test.
-    pub culled_by_occlusion: u32,
     /// Occluders rendered into the occlusion map.
     pub occluders_used: u32,
     /// Superseded poses dropped since the previous frame sent to this client.
@@ -262,12 +289,25 @@ pub struct FrameStats {
 }
 
 impl FrameStats {
+    /// Objects removed by the frustum test: `objects − candidates`, where `objects` is the
+    /// scene's object count (the Hello's `object_count`). Saturates at 0 for inconsistent
+    /// input.
+    pub fn culled_by_frustum(&self, objects: u32) -> u32 {
+        objects.saturating_sub(self.candidates)
+    }
+
+    /// In-frustum objects removed by the occlusion test: `candidates − visible`, where
+    /// `visible` is the size of the visible set this frame describes (a Full frame's
+    /// `ids.len()`, or the set once a Delta is applied). Saturates at 0 for inconsistent
+    /// input.
+    pub fn culled_by_occlusion(&self, visible: usize) -> u32 {
+        let visible = u32::try_from(visible).unwrap_or(u32::MAX);
+        self.candidates.saturating_sub(visible)
+    }
+
     fn to_words(self) -> [u32; STATS_WORDS] {
         [
-            self.objects,
             self.candidates,
-            self.culled_by_frustum,
-            self.culled_by_occlusion,
             self.occluders_used,
             self.dropped_poses,
             self.gpu_us,
@@ -276,21 +316,9 @@ impl FrameStats {
     }
 
     fn from_words(w: [u32; STATS_WORDS]) -> FrameStats {
-        let [
-            objects,
-            candidates,
-            culled_by_frustum,
-            culled_by_occlusion,
-            occluders_used,
-            dropped_poses,
-            gpu_us,
-            total_us,
-        ] = w;
+        let [candidates, occluders_used, dropped_poses, gpu_us, total_us] = w;
         FrameStats {
-            objects,
             candidates,
-            culled_by_frustum,
-            culled_by_occlusion,
             occluders_used,
             dropped_poses,
             gpu_us,
@@ -382,6 +410,19 @@ pub struct VisibleFull {
     pub ids: Vec<u32>,
 }
 
+impl VisibleFull {
+    /// Objects removed by the frustum test, given the scene's object count (the Hello's
+    /// `object_count`).
+    pub fn culled_by_frustum(&self, objects: u32) -> u32 {
+        self.stats.culled_by_frustum(objects)
+    }
+
+    /// In-frustum objects removed by the occlusion test: `candidates − ids.len()`.
+    pub fn culled_by_occlusion(&self) -> u32 {
+        self.stats.culled_by_occlusion(self.ids.len())
+    }
+}
+
 /// Changes to the visible set since the previous Full/Delta to the same client
 /// (server → client).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -396,6 +437,27 @@ pub struct VisibleDelta {
     pub added: Vec<u32>,
     /// IDs that stopped being visible, strictly ascending, none of them in `added`.
     pub removed: Vec<u32>,
+}
+
+impl VisibleDelta {
+    /// Whether this change can travel as a Delta frame: each list holds at most
+    /// [`MAX_DELTA_IDS`] IDs. [`Frame::encode`] panics on a delta that does not fit, and
+    /// [`Frame::validate`] reports it; send a [`VisibleFull`] instead.
+    pub fn fits(&self) -> bool {
+        self.added.len() <= MAX_DELTA_IDS && self.removed.len() <= MAX_DELTA_IDS
+    }
+
+    /// Objects removed by the frustum test, given the scene's object count (the Hello's
+    /// `object_count`).
+    pub fn culled_by_frustum(&self, objects: u32) -> u32 {
+        self.stats.culled_by_frustum(objects)
+    }
+
+    /// In-frustum objects removed by the occlusion test, given the size of the visible set
+    /// once this delta is applied.
+    pub fn culled_by_occlusion(&self, visible: usize) -> u32 {
+        self.stats.culled_by_occlusion(visible)
+    }
 }
 
 /// An error report (server → client).
@@ -443,10 +505,6 @@ pub enum FrameError {
     UnknownKind { kind: u32 },
     #[error("{kind} frame has ack {ack}, it must be 0")]
     NonZeroAck { kind: FrameKind, ack: u32 },
-    #[error(
-        "payload length mismatch: the header declares {declared} payload words, the frame carries {actual}"
-    )]
-    PayloadLengthMismatch { declared: u32, actual: usize },
     #[error("{kind} payload has {actual} words, its fields need {expected}")]
     PayloadSize {
         kind: FrameKind,
@@ -474,6 +532,11 @@ pub enum FrameError {
     RemovedAbsent { id: u32 },
     #[error("delta adds id {id}, which is already in the visible set")]
     AddedPresent { id: u32 },
+    #[error(
+        "delta lists too long: {added} added and {removed} removed ids, a delta frame carries at most {max} per list (send a full frame)",
+        max = MAX_DELTA_IDS
+    )]
+    DeltaTooLarge { added: usize, removed: usize },
 }
 
 impl FrameError {
@@ -499,7 +562,7 @@ impl Frame {
         }
     }
 
-    /// Header word 3: the sender's sequence number.
+    /// Header word 2: the sender's sequence number.
     pub fn seq(&self) -> u32 {
         match self {
             Frame::Hello(f) => f.seq,
@@ -510,7 +573,7 @@ impl Frame {
         }
     }
 
-    /// Header word 4: the pose sequence number answered (always 0 for Hello and Pose).
+    /// Header word 3: the pose sequence number answered (always 0 for Hello and Pose).
     pub fn ack(&self) -> u32 {
         match self {
             Frame::Hello(_) | Frame::Pose(_) => 0,
@@ -526,7 +589,7 @@ impl Frame {
             Frame::Hello(h) => 2 + h.info_json.len().div_ceil(4),
             Frame::Pose(_) => POSE_PAYLOAD_WORDS,
             Frame::Full(f) => STATS_WORDS + 1 + f.ids.len(),
-            Frame::Delta(d) => STATS_WORDS + 2 + d.added.len() + d.removed.len(),
+            Frame::Delta(d) => STATS_WORDS + 1 + d.added.len() + d.removed.len(),
             Frame::Error(e) => 2 + e.message.len().div_ceil(4),
         }
     }
@@ -537,9 +600,18 @@ impl Frame {
     }
 
     /// Checks what [`Frame::encode`] does not: that the ID lists are strictly ascending
-    /// (and disjoint, for a delta) and the frame fits in [`MAX_FRAME_BYTES`]. A frame that
-    /// passes encodes to bytes that [`Frame::decode`] accepts and decodes to an equal frame.
+    /// (and disjoint, for a delta), a delta's lists fit ([`VisibleDelta::fits`]) and the
+    /// frame fits in [`MAX_FRAME_BYTES`]. A frame that passes encodes to bytes that
+    /// [`Frame::decode`] accepts and decodes to an equal frame.
     pub fn validate(&self) -> Result<(), FrameError> {
+        if let Frame::Delta(d) = self {
+            if !d.fits() {
+                return Err(FrameError::DeltaTooLarge {
+                    added: d.added.len(),
+                    removed: d.removed.len(),
+                });
+            }
+        }
         let len = self.encoded_len();
         if len > MAX_FRAME_BYTES {
             return Err(FrameError::TooLong { len });
@@ -562,16 +634,15 @@ impl Frame {
     ///
     /// # Panics
     ///
-    /// If a string or ID list has more than `u32::MAX` elements (the frame could not
-    /// describe it, and would be far beyond [`MAX_FRAME_BYTES`] anyway).
+    /// If a delta does not [fit](VisibleDelta::fits) (more than [`MAX_DELTA_IDS`] IDs in a
+    /// list), or a string or ID list has more than `u32::MAX` elements (the frame could
+    /// not describe it, and would be far beyond [`MAX_FRAME_BYTES`] anyway).
     pub fn encode(&self) -> Vec<u8> {
         let mut w = Writer(Vec::with_capacity(self.encoded_len()));
         w.word(MAGIC);
-        w.word(PROTOCOL_VERSION);
-        w.word(self.kind() as u32);
+        w.word(PROTOCOL_VERSION | ((self.kind() as u32) << 16));
         w.word(self.seq());
         w.word(self.ack());
-        w.word(len_u32(self.payload_words()));
         match self {
             Frame::Hello(h) => {
                 w.word(h.object_count);
@@ -598,9 +669,15 @@ impl Frame {
                 w.words(&f.ids);
             }
             Frame::Delta(d) => {
+                assert!(
+                    d.fits(),
+                    "a delta frame carries at most {MAX_DELTA_IDS} ids per list, got {} added and {} removed: send a full frame",
+                    d.added.len(),
+                    d.removed.len()
+                );
                 w.words(&d.stats.to_words());
-                w.word(len_u32(d.added.len()));
-                w.word(len_u32(d.removed.len()));
+                // Both fit in 16 bits (checked above).
+                w.word(len_u32(d.added.len()) | (len_u32(d.removed.len()) << 16));
                 w.words(&d.added);
                 w.words(&d.removed);
             }
@@ -627,10 +704,11 @@ impl Frame {
         }
         let mut h = [0u32; HEADER_WORDS];
         fill_words(&mut h, header);
-        let [magic, version, kind, seq, ack, declared] = h;
+        let [magic, version_kind, seq, ack] = h;
         if magic != MAGIC {
             return Err(FrameError::BadMagic { found: magic });
         }
+        let (version, kind) = (version_kind & 0xFFFF, version_kind >> 16);
         if version != PROTOCOL_VERSION {
             return Err(FrameError::UnsupportedVersion {
                 found: version,
@@ -641,14 +719,10 @@ impl Frame {
         if matches!(kind, FrameKind::Hello | FrameKind::Pose) && ack != 0 {
             return Err(FrameError::NonZeroAck { kind, ack });
         }
-        let actual = payload.len() / 4;
-        if u64::from(declared) != actual as u64 {
-            return Err(FrameError::PayloadLengthMismatch { declared, actual });
-        }
         let mut p = Reader {
             kind,
             rest: payload,
-            words: actual,
+            words: payload.len() / 4,
         };
         Ok(match kind {
             FrameKind::Hello => {
@@ -706,7 +780,8 @@ impl Frame {
             }
             FrameKind::Delta => {
                 let stats = FrameStats::from_words(p.fixed()?);
-                let [added_count, removed_count] = p.fixed()?;
+                let [counts] = p.fixed()?;
+                let (added_count, removed_count) = (counts & 0xFFFF, counts >> 16);
                 let tail = p.tail(u64::from(added_count) + u64::from(removed_count))?;
                 // `tail` holds exactly added_count + removed_count words, so this fits.
                 let split = usize::try_from(added_count)

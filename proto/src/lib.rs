@@ -19,8 +19,10 @@ pub mod rest;
 
 pub use rest::*;
 
-/// Version of the wire protocol; bumped on every incompatible change.
-pub const PROTOCOL_VERSION: u32 = 1;
+/// Version of the wire protocol; bumped on every incompatible change. Binary frames carry
+/// it in the low 16 bits of header word 1, the Hello's JSON as `protocol_version`.
+/// Version 2 shrank the header and the stats block so that deltas stay small.
+pub const PROTOCOL_VERSION: u32 = 2;
 
 /// A camera pose, as in DESIGN.md §3.
 ///

@@ -41,7 +41,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
             "hello",
             Frame::Hello(Hello {
                 seq: 1,
-                object_count: 1234,
+                object_count: OBJECTS,
                 info_json: HELLO_JSON.to_owned(),
             }),
         ),
@@ -64,10 +64,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                 seq: 2,
                 ack: 42,
                 stats: FrameStats {
-                    objects: 1234,
                     candidates: 10,
-                    culled_by_frustum: 1224,
-                    culled_by_occlusion: 4,
                     occluders_used: 2,
                     dropped_poses: 1,
                     gpu_us: 850,
@@ -82,10 +79,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                 seq: 3,
                 ack: 43,
                 stats: FrameStats {
-                    objects: 1234,
                     candidates: 9,
-                    culled_by_frustum: 1225,
-                    culled_by_occlusion: 2,
                     occluders_used: 2,
                     dropped_poses: 0,
                     gpu_us: 790,
@@ -101,10 +95,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                 seq: 4,
                 ack: 44,
                 stats: FrameStats {
-                    objects: 1234,
                     candidates: 0,
-                    culled_by_frustum: 1234,
-                    culled_by_occlusion: 0,
                     occluders_used: 0,
                     dropped_poses: 0,
                     gpu_us: 0,
@@ -119,10 +110,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                 seq: 5,
                 ack: 45,
                 stats: FrameStats {
-                    objects: 1234,
                     candidates: 0,
-                    culled_by_frustum: 1234,
-                    culled_by_occlusion: 0,
                     occluders_used: 0,
                     dropped_poses: 3,
                     gpu_us: 0,
@@ -144,6 +132,9 @@ fn goldens() -> Vec<(&'static str, Frame)> {
     ]
 }
 
+/// Objects in the scene of the golden session (the Hello's `object_count`).
+const OBJECTS: u32 = 1234;
+
 /// What a delta golden applies to, and the visible set that results.
 fn delta_base(name: &str) -> Option<(&'static str, Vec<u32>)> {
     match name {
@@ -155,14 +146,20 @@ fn delta_base(name: &str) -> Option<(&'static str, Vec<u32>)> {
 
 fn stats_json(s: &FrameStats) -> Value {
     json!({
-        "objects": s.objects,
         "candidates": s.candidates,
-        "culled_by_frustum": s.culled_by_frustum,
-        "culled_by_occlusion": s.culled_by_occlusion,
         "occluders_used": s.occluders_used,
         "dropped_poses": s.dropped_poses,
         "gpu_us": s.gpu_us,
         "total_us": s.total_us,
+    })
+}
+
+/// What a client derives from the stats, the Hello's object count and the visible set.
+fn derived_json(s: &FrameStats, visible: usize) -> Value {
+    json!({
+        "objects": OBJECTS,
+        "culled_by_frustum": s.culled_by_frustum(OBJECTS),
+        "culled_by_occlusion": s.culled_by_occlusion(visible),
     })
 }
 
@@ -195,12 +192,14 @@ fn frame_json(name: &str, frame: &Frame) -> Value {
         }),
         Frame::Full(f) => json!({
             "stats": stats_json(&f.stats),
+            "derived": derived_json(&f.stats, f.ids.len()),
             "ids": f.ids,
         }),
         Frame::Delta(d) => {
             let (base, after) = delta_base(name).expect("every delta golden has a base");
             json!({
                 "stats": stats_json(&d.stats),
+                "derived": derived_json(&d.stats, after.len()),
                 "added": d.added,
                 "removed": d.removed,
                 "base": base,
@@ -302,6 +301,12 @@ fn encode_matches_golden_bytes() {
         assert_eq!(encoded, bytes, "{name}");
         assert_eq!(frame.encoded_len(), bytes.len(), "{name}");
         assert!(text.starts_with("484d434c\n"), "{name}: magic line");
+        let version_kind = PROTOCOL_VERSION | ((frame.kind() as u32) << 16);
+        assert_eq!(
+            text.lines().nth(1),
+            Some(to_hex(&version_kind.to_le_bytes()).trim_end()),
+            "{name}: version and kind line"
+        );
     }
 }
 
@@ -394,4 +399,19 @@ fn golden_deltas_apply_to_their_bases() {
         panic!("full.hex is not a full frame")
     };
     assert_eq!(full.ids, FULL_IDS);
+    // The derived stats of the session: what version 1 sent as words.
+    assert_eq!(
+        (full.culled_by_frustum(OBJECTS), full.culled_by_occlusion()),
+        (1224, 4)
+    );
+    let Frame::Delta(delta) = find("delta.hex") else {
+        panic!("delta.hex is not a delta frame")
+    };
+    assert_eq!(
+        (
+            delta.culled_by_frustum(OBJECTS),
+            delta.culled_by_occlusion(AFTER_DELTA.len())
+        ),
+        (1225, 2)
+    );
 }

@@ -4,8 +4,8 @@ use std::collections::BTreeSet;
 
 use homcull_proto::PROTOCOL_VERSION;
 use homcull_proto::frame::{
-    ErrorCode, Frame, FrameError, FrameKind, FrameStats, HEADER_BYTES, MAGIC, MAX_FRAME_BYTES,
-    VisibleDelta, VisibleFull, apply_delta,
+    ErrorCode, Frame, FrameError, FrameKind, FrameStats, HEADER_BYTES, MAGIC, MAX_DELTA_IDS,
+    MAX_FRAME_BYTES, VisibleDelta, VisibleFull, apply_delta,
 };
 
 /// Name of each variant; the exhaustive match makes a new variant fail to compile here
@@ -19,7 +19,6 @@ fn variant(e: &FrameError) -> &'static str {
         FrameError::UnsupportedVersion { .. } => "UnsupportedVersion",
         FrameError::UnknownKind { .. } => "UnknownKind",
         FrameError::NonZeroAck { .. } => "NonZeroAck",
-        FrameError::PayloadLengthMismatch { .. } => "PayloadLengthMismatch",
         FrameError::PayloadSize { .. } => "PayloadSize",
         FrameError::NotAscending { .. } => "NotAscending",
         FrameError::IdInBothLists { .. } => "IdInBothLists",
@@ -29,6 +28,7 @@ fn variant(e: &FrameError) -> &'static str {
         FrameError::UnknownErrorCode { .. } => "UnknownErrorCode",
         FrameError::RemovedAbsent { .. } => "RemovedAbsent",
         FrameError::AddedPresent { .. } => "AddedPresent",
+        FrameError::DeltaTooLarge { .. } => "DeltaTooLarge",
     }
 }
 
@@ -40,7 +40,6 @@ const ALL_VARIANTS: [&str; 17] = [
     "UnsupportedVersion",
     "UnknownKind",
     "NonZeroAck",
-    "PayloadLengthMismatch",
     "PayloadSize",
     "NotAscending",
     "IdInBothLists",
@@ -50,28 +49,27 @@ const ALL_VARIANTS: [&str; 17] = [
     "UnknownErrorCode",
     "RemovedAbsent",
     "AddedPresent",
+    "DeltaTooLarge",
 ];
 
 fn bytes(words: &[u32]) -> Vec<u8> {
     words.iter().flat_map(|w| w.to_le_bytes()).collect()
 }
 
+/// Header word 1: the version in the low 16 bits, the kind in the high 16 bits.
+fn version_kind(version: u32, kind: u32) -> u32 {
+    version | (kind << 16)
+}
+
 /// A frame with a correct header around `payload`.
 fn frame(kind: u32, seq: u32, ack: u32, payload: &[u32]) -> Vec<u8> {
-    let mut w = vec![
-        MAGIC,
-        PROTOCOL_VERSION,
-        kind,
-        seq,
-        ack,
-        payload.len() as u32,
-    ];
+    let mut w = vec![MAGIC, version_kind(PROTOCOL_VERSION, kind), seq, ack];
     w.extend_from_slice(payload);
     bytes(&w)
 }
 
-fn stats() -> [u32; 8] {
-    [10, 9, 1, 2, 3, 0, 100, 200]
+fn stats() -> [u32; 5] {
+    [9, 3, 0, 100, 200]
 }
 
 fn full(ids: &[u32]) -> Vec<u8> {
@@ -83,8 +81,7 @@ fn full(ids: &[u32]) -> Vec<u8> {
 
 fn delta(added: &[u32], removed: &[u32]) -> Vec<u8> {
     let mut p = stats().to_vec();
-    p.push(added.len() as u32);
-    p.push(removed.len() as u32);
+    p.push(added.len() as u32 | ((removed.len() as u32) << 16));
     p.extend_from_slice(added);
     p.extend_from_slice(removed);
     frame(4, 1, 1, &p)
@@ -123,8 +120,8 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
         ("empty", vec![], E::TooShort { len: 0 }),
         (
             "header minus a word",
-            frame(3, 0, 0, &[])[..20].to_vec(),
-            E::TooShort { len: 20 },
+            frame(3, 0, 0, &[])[..12].to_vec(),
+            E::TooShort { len: 12 },
         ),
         (
             "over the limit, checked first",
@@ -140,31 +137,52 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
                 len: MAX_FRAME_BYTES + 1,
             },
         ),
-        ("a stray byte", unaligned, E::NotWordAligned { len: 69 }),
+        ("a stray byte", unaligned, E::NotWordAligned { len: 49 }),
         (
             "big-endian magic",
-            bytes(&[0x484D_434C, 1, 3, 0, 0, 0]),
+            bytes(&[0x484D_434C, version_kind(2, 3), 0, 0]),
             E::BadMagic { found: 0x484D_434C },
         ),
-        ("zero magic", vec![0; 24], E::BadMagic { found: 0 }),
+        ("zero magic", vec![0; 16], E::BadMagic { found: 0 }),
         (
-            "version 2",
-            bytes(&[MAGIC, 2, 3, 0, 0, 0]),
+            "a version 1 full frame (version word 1, kind in word 2, payload length in word 5)",
+            bytes(&[MAGIC, 1, 3, 2, 42, 9, 1234, 10, 1224, 4, 2, 1, 850, 1200, 0]),
             E::UnsupportedVersion {
-                found: 2,
-                supported: 1,
+                found: 1,
+                supported: 2,
+            },
+        ),
+        (
+            "version 3",
+            bytes(&[MAGIC, version_kind(3, 3), 0, 0]),
+            E::UnsupportedVersion {
+                found: 3,
+                supported: 2,
             },
         ),
         (
             "version 0",
-            bytes(&[MAGIC, 0, 3, 0, 0, 0]),
+            bytes(&[MAGIC, version_kind(0, 3), 0, 0]),
             E::UnsupportedVersion {
                 found: 0,
-                supported: 1,
+                supported: 2,
+            },
+        ),
+        (
+            "version and kind swapped",
+            bytes(&[MAGIC, version_kind(3, 2), 0, 0]),
+            E::UnsupportedVersion {
+                found: 3,
+                supported: 2,
             },
         ),
         ("kind 0", frame(0, 0, 0, &[]), E::UnknownKind { kind: 0 }),
         ("kind 6", frame(6, 0, 0, &[]), E::UnknownKind { kind: 6 }),
+        (
+            "kind 0xffff",
+            frame(0xFFFF, 0, 0, &[]),
+            E::UnknownKind { kind: 0xFFFF },
+        ),
         (
             "hello with an ack",
             frame(1, 1, 9, &text_payload(5, b"{}", 0)),
@@ -177,28 +195,12 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             "pose with an ack",
             {
                 let mut p = pose(0);
-                p[16..20].copy_from_slice(&3u32.to_le_bytes());
+                p[12..16].copy_from_slice(&3u32.to_le_bytes());
                 p
             },
             E::NonZeroAck {
                 kind: FrameKind::Pose,
                 ack: 3,
-            },
-        ),
-        (
-            "declared one word more than present",
-            bytes(&[MAGIC, 1, 3, 0, 0, 10, 0, 0, 0, 0, 0, 0, 0, 0, 0]),
-            E::PayloadLengthMismatch {
-                declared: 10,
-                actual: 9,
-            },
-        ),
-        (
-            "declared u32::MAX words",
-            bytes(&[MAGIC, 1, 3, 0, 0, u32::MAX]),
-            E::PayloadLengthMismatch {
-                declared: u32::MAX,
-                actual: 0,
             },
         ),
         (
@@ -224,8 +226,8 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             frame(3, 0, 0, &stats()),
             E::PayloadSize {
                 kind: FrameKind::Full,
-                expected: 9,
-                actual: 8,
+                expected: 6,
+                actual: 5,
             },
         ),
         (
@@ -237,8 +239,8 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             },
             E::PayloadSize {
                 kind: FrameKind::Full,
-                expected: 14,
-                actual: 12,
+                expected: 11,
+                actual: 9,
             },
         ),
         (
@@ -250,30 +252,56 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             },
             E::PayloadSize {
                 kind: FrameKind::Full,
-                expected: 9 + u64::from(u32::MAX),
-                actual: 10,
+                expected: 6 + u64::from(u32::MAX),
+                actual: 7,
             },
         ),
         (
-            "delta counts whose sum overflows u32",
+            "delta counts both 65535 (must not allocate them)",
             {
                 let mut p = stats().to_vec();
-                p.extend([u32::MAX, 2, 1]);
+                p.extend([u32::MAX, 1]);
                 frame(4, 0, 0, &p)
             },
             E::PayloadSize {
                 kind: FrameKind::Delta,
-                expected: 10 + u64::from(u32::MAX) + 2,
-                actual: 11,
+                expected: 6 + 2 * 65535,
+                actual: 7,
+            },
+        ),
+        (
+            "delta counts word: 1 added in the low half, 1 removed in the high half",
+            {
+                let mut p = stats().to_vec();
+                p.extend([0x0001_0001, 5]);
+                frame(4, 0, 0, &p)
+            },
+            E::PayloadSize {
+                kind: FrameKind::Delta,
+                expected: 8,
+                actual: 7,
+            },
+        ),
+        (
+            "delta with its counts read as v1 (two words)",
+            {
+                let mut p = stats().to_vec();
+                p.extend([1, 1, 5, 6]);
+                frame(4, 0, 0, &p)
+            },
+            E::PayloadSize {
+                kind: FrameKind::Delta,
+                expected: 7,
+                actual: 9,
             },
         ),
         (
             "delta without its counts",
-            frame(4, 0, 0, &[0; 9]),
+            frame(4, 0, 0, &[0; 5]),
             E::PayloadSize {
                 kind: FrameKind::Delta,
-                expected: 10,
-                actual: 9,
+                expected: 6,
+                actual: 5,
             },
         ),
         (
@@ -502,10 +530,79 @@ fn apply_delta_rejects_and_leaves_the_set_alone() {
     }
 }
 
+/// Frames that `Frame::validate` refuses (and `Frame::encode` must not be given).
+fn validate_cases() -> Vec<(&'static str, Frame, FrameError)> {
+    let d = |added: u32, removed: u32| {
+        Frame::Delta(VisibleDelta {
+            added: (0..added).collect(),
+            removed: (added..added + removed).collect(),
+            ..VisibleDelta::default()
+        })
+    };
+    let max = MAX_DELTA_IDS as u32;
+    vec![
+        (
+            "delta adding 65536 ids",
+            d(max + 1, 0),
+            FrameError::DeltaTooLarge {
+                added: MAX_DELTA_IDS + 1,
+                removed: 0,
+            },
+        ),
+        (
+            "delta removing 65536 ids",
+            d(3, max + 1),
+            FrameError::DeltaTooLarge {
+                added: 3,
+                removed: MAX_DELTA_IDS + 1,
+            },
+        ),
+    ]
+}
+
+#[test]
+fn validate_rejects_deltas_that_do_not_fit() {
+    for (what, frame, expected) in validate_cases() {
+        assert_eq!(frame.validate(), Err(expected.clone()), "{what}");
+        let Frame::Delta(d) = &frame else {
+            unreachable!()
+        };
+        assert!(!d.fits(), "{what}");
+        assert_eq!(expected.code(), ErrorCode::MalformedFrame);
+        assert!(expected.to_string().contains("65535"), "{expected}");
+    }
+    // The largest delta that fits, both lists full: 16 + 4 * (5 + 1 + 2 * 65535) bytes.
+    let max = MAX_DELTA_IDS as u32;
+    let full = VisibleDelta {
+        added: (0..max).collect(),
+        removed: (max..2 * max).collect(),
+        ..VisibleDelta::default()
+    };
+    assert!(full.fits());
+    let frame = Frame::Delta(full);
+    assert_eq!(frame.validate(), Ok(()));
+    let bytes = frame.encode();
+    assert_eq!(bytes.len(), 16 + 4 * (5 + 1 + 2 * MAX_DELTA_IDS));
+    assert_eq!(
+        &bytes[36..40],
+        &[0xFF; 4],
+        "both 16-bit counts at their maximum"
+    );
+    assert_eq!(Frame::decode(&bytes), Ok(frame));
+}
+
+#[test]
+#[should_panic(expected = "at most 65535 ids per list")]
+fn encoding_a_delta_that_does_not_fit_panics() {
+    let (_, frame, _) = validate_cases().remove(0);
+    let _ = frame.encode();
+}
+
 #[test]
 fn every_variant_has_a_rejection_test() {
     let mut seen: BTreeSet<&str> = cases().iter().map(|(_, _, e)| variant(e)).collect();
     seen.extend(apply_cases().iter().map(|(_, _, _, e)| variant(e)));
+    seen.extend(validate_cases().iter().map(|(_, _, e)| variant(e)));
     let all: BTreeSet<&str> = ALL_VARIANTS.into_iter().collect();
     assert_eq!(seen, all);
 }

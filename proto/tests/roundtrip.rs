@@ -24,15 +24,12 @@ fn any_f32() -> impl Strategy<Value = f32> {
 }
 
 fn stats() -> impl Strategy<Value = FrameStats> {
-    any::<[u32; 8]>().prop_map(|w| FrameStats {
-        objects: w[0],
-        candidates: w[1],
-        culled_by_frustum: w[2],
-        culled_by_occlusion: w[3],
-        occluders_used: w[4],
-        dropped_poses: w[5],
-        gpu_us: w[6],
-        total_us: w[7],
+    any::<[u32; 5]>().prop_map(|w| FrameStats {
+        candidates: w[0],
+        occluders_used: w[1],
+        dropped_poses: w[2],
+        gpu_us: w[3],
+        total_us: w[4],
     })
 }
 
@@ -238,9 +235,17 @@ proptest! {
         kind in 0u32..7,
         seq in any::<u32>(),
         ack in prop_oneof![Just(0u32), any::<u32>()],
-        payload in vec(prop_oneof![0u32..12, any::<u32>()], 0..40),
+        payload in vec(
+            prop_oneof![
+                0u32..12,
+                // A delta's counts word: small counts in both 16-bit halves.
+                (0u32..8, 0u32..8).prop_map(|(added, removed)| added | (removed << 16)),
+                any::<u32>(),
+            ],
+            0..40,
+        ),
     ) {
-        let mut w = vec![MAGIC, PROTOCOL_VERSION, kind, seq, ack, payload.len() as u32];
+        let mut w = vec![MAGIC, PROTOCOL_VERSION | (kind << 16), seq, ack];
         w.extend(payload);
         let bytes: Vec<u8> = w.iter().flat_map(|x| x.to_le_bytes()).collect();
         decode_is_canonical(&bytes)?;
@@ -324,5 +329,5 @@ fn pose_from_look_at_is_none() {
     let p = PoseFrame::from_pose(3, true, &neither).unwrap();
     assert_eq!(p.rotation, [0.0, 0.0, 0.0, 1.0]);
     assert_eq!((p.seq, p.want_full), (3, true));
-    assert_eq!(HEADER_WORDS, 6);
+    assert_eq!(HEADER_WORDS, 4);
 }

@@ -8,7 +8,8 @@
 //! - the sender takes the mailbox's pose when the previous answer is out (and no
 //!   sooner than the frame-rate cap allows), sends it to the GPU worker, and writes a
 //!   delta against the last set it sent, or a full frame on the first answer, every
-//!   `full_every` frames, and when the client asks.
+//!   `full_every` frames, when the client asks, and when the change is too big for a
+//!   delta frame (more than 65535 IDs added or removed, see `VisibleDelta::fits`).
 //!
 //! A client that stops reading blocks only its own sender; after the send timeout it
 //! is dropped. Malformed frames get an error frame; a flood of them closes the socket.
@@ -33,7 +34,7 @@ use super::state::{AppState, SceneEntry, WsClientSlot};
 use crate::camera::Camera;
 use crate::cull::PoseResult;
 
-/// Largest message a client may send (a pose frame is 76 bytes).
+/// Largest message a client may send (a pose frame is 68 bytes).
 const MAX_CLIENT_MESSAGE: usize = 64 << 10;
 /// Consecutive malformed messages after which the socket is closed.
 const MAX_BAD_MESSAGES: u32 = 64;
@@ -232,26 +233,13 @@ async fn client(
             }),
             Ok(r) => {
                 let stats = frame_stats(&r, mailbox.dropped.swap(0, Ordering::Relaxed), started);
-                let full = p.want_full || since_full >= state.config.full_every;
-                let frame = if full {
+                let want_full = p.want_full || since_full >= state.config.full_every;
+                let frame = visibility_frame(seq, p.seq, stats, &last_set, &r.visible, want_full);
+                if matches!(frame, Frame::Full(_)) {
                     since_full = 0;
-                    Frame::Full(VisibleFull {
-                        seq,
-                        ack: p.seq,
-                        stats,
-                        ids: r.visible.clone(),
-                    })
                 } else {
                     since_full += 1;
-                    let (added, removed) = diff(&last_set, &r.visible);
-                    Frame::Delta(VisibleDelta {
-                        seq,
-                        ack: p.seq,
-                        stats,
-                        added,
-                        removed,
-                    })
-                };
+                }
                 last_set = r.visible;
                 frame
             }
@@ -271,13 +259,45 @@ async fn client(
     }
 }
 
+/// The answer to pose `ack`: a delta from `last_set` (the set last sent to this client) to
+/// `visible`, or a full frame when `want_full` or when the change does not fit in a delta
+/// frame (more than [`MAX_DELTA_IDS`](homcull_proto::frame::MAX_DELTA_IDS) IDs added or
+/// removed).
+fn visibility_frame(
+    seq: u32,
+    ack: u32,
+    stats: FrameStats,
+    last_set: &[u32],
+    visible: &[u32],
+    want_full: bool,
+) -> Frame {
+    if !want_full {
+        let (added, removed) = diff(last_set, visible);
+        let delta = VisibleDelta {
+            seq,
+            ack,
+            stats,
+            added,
+            removed,
+        };
+        if delta.fits() {
+            return Frame::Delta(delta);
+        }
+    }
+    Frame::Full(VisibleFull {
+        seq,
+        ack,
+        stats,
+        ids: visible.to_vec(),
+    })
+}
+
 fn frame_stats(r: &PoseResult, dropped: u32, started: Instant) -> FrameStats {
     let us = |ms: f64| (ms * 1e3).clamp(0.0, u32::MAX as f64) as u32;
+    // objects, culled_by_frustum and culled_by_occlusion are not sent: clients derive
+    // them from the Hello's object count, `candidates` and the visible set.
     FrameStats {
-        objects: r.stats.objects,
         candidates: r.stats.candidates,
-        culled_by_frustum: r.stats.culled_by_frustum,
-        culled_by_occlusion: r.stats.culled_by_occlusion,
         occluders_used: r.stats.occluders_used,
         dropped_poses: dropped,
         gpu_us: us(r.stats.gpu_ms),
@@ -343,4 +363,52 @@ fn parse_text(text: &str) -> Result<Pending, ErrorFrame> {
         cam,
         want_full: m.full,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use homcull_proto::frame::{MAX_DELTA_IDS, apply_delta};
+
+    use super::*;
+
+    #[test]
+    fn a_change_too_big_for_a_delta_goes_out_as_a_full_frame() {
+        let stats = FrameStats::default();
+        let max = MAX_DELTA_IDS as u32;
+        let many: Vec<u32> = (0..max + 1).collect();
+        let fits: Vec<u32> = (1..max + 1).collect();
+        // 65535 removed (and 65535 added) still fit in one delta...
+        let shifted: Vec<u32> = (max + 1..2 * max + 1).collect();
+        match visibility_frame(1, 1, stats, &fits, &shifted, false) {
+            Frame::Delta(d) => {
+                assert_eq!(
+                    (d.added.len(), d.removed.len()),
+                    (MAX_DELTA_IDS, MAX_DELTA_IDS)
+                );
+                let mut set = fits.clone();
+                apply_delta(&mut set, &d).unwrap();
+                assert_eq!(set, shifted);
+            }
+            f => panic!("expected a delta, got {:?}", f.kind()),
+        }
+        // ...65536 do not, in either list.
+        for (old, new) in [(&many, &Vec::new()), (&Vec::new(), &many)] {
+            match visibility_frame(2, 2, stats, old, new, false) {
+                Frame::Full(f) => {
+                    assert_eq!(&f.ids, new);
+                    assert_eq!(Frame::Full(f).validate(), Ok(()));
+                }
+                f => panic!("expected a full frame, got {:?}", f.kind()),
+            }
+        }
+        // Small changes are deltas unless a full frame is asked for.
+        assert!(matches!(
+            visibility_frame(3, 3, stats, &[1, 2], &[2, 3], false),
+            Frame::Delta(d) if d.added == [3] && d.removed == [1]
+        ));
+        assert!(matches!(
+            visibility_frame(4, 4, stats, &[1, 2], &[2, 3], true),
+            Frame::Full(f) if f.ids == [2, 3]
+        ));
+    }
 }

@@ -9,6 +9,7 @@ import {
   FrameError,
   PROTOCOL_VERSION,
   decodeFrame,
+  deriveStats,
   encodePose,
   errorCodeName,
 } from "./codec.js";
@@ -100,7 +101,9 @@ function defaultBaseUrl() {
  * - `state`   {state, previous, attempt, delayMs?}: the connection state changed.
  * - `hello`   {objectCount, info}: the server's Hello (info: parsed info_json).
  * - `visible` {ack, seq, full, ids, added, removed, stats, rttMs, pose}: a new visible
- *             set (ids: strictly ascending array; added/removed: change since the last).
+ *             set (ids: strictly ascending array; added/removed: change since the last;
+ *             stats: the frame's stats block plus `objects`, `culled_by_frustum` and
+ *             `culled_by_occlusion`, derived from the Hello and the set, see `deriveStats`).
  * - `stats`   {ack, stats, rttMs, rtt: {p50, p95, count}}: after every visible event.
  * - `error`   {code, message, fatal, ack?}: something went wrong; `code` is the Error
  *             frame's name (`invalid_pose`, ...) or one of `connection`, `protocol`,
@@ -489,7 +492,8 @@ export class HomcullClient extends EventTarget {
       this._rtts.push(rttMs);
       if (this._rtts.length > this.rttWindow) this._rtts.splice(0, this._rtts.length - this.rttWindow);
     }
-    this.lastFrame = { ack: frame.ack, seq: frame.seq, full, stats: frame.stats, rttMs };
+    const stats = deriveStats(frame.stats, this.hello.objectCount, this.visible.size);
+    this.lastFrame = { ack: frame.ack, seq: frame.seq, full, stats, rttMs };
     this._emit("visible", {
       ack: frame.ack,
       seq: frame.seq,
@@ -497,11 +501,11 @@ export class HomcullClient extends EventTarget {
       ids: this.visible.ids,
       added: change.added,
       removed: change.removed,
-      stats: frame.stats,
+      stats,
       rttMs,
       pose: sent?.pose ?? null,
     });
-    this._emit("stats", { ack: frame.ack, stats: frame.stats, rttMs, rtt: this.rtt() });
+    this._emit("stats", { ack: frame.ack, stats, rttMs, rtt: this.rtt() });
   }
 
   _onError(frame) {

@@ -1,8 +1,9 @@
-// Binary WebSocket frames of the homcull protocol (version 1), encoder and decoder.
+// Binary WebSocket frames of the homcull protocol (version 2), encoder and decoder.
 //
 // This mirrors `proto/src/frame.rs` exactly (read its module docs for the layout): a
 // frame is a sequence of little-endian u32 words, f32 travel as their IEEE-754 bits, a
-// 6-word header (magic, version, kind, seq, ack, payload_words) and a payload per kind.
+// 4-word header (magic, version | kind << 16, seq, ack) and a payload per kind that
+// runs to the end of the frame.
 // The decoder accepts exactly what the Rust decoder accepts, checks in the same order and
 // reports the first failure as a `FrameError` whose `variant` and `fields` match the Rust
 // `FrameError` (the golden vectors in `proto/tests/golden/` and the rejection cases of
@@ -15,27 +16,30 @@
 //   { kind: "full",  seq, ack, stats, ids }
 //   { kind: "delta", seq, ack, stats, added, removed }
 //   { kind: "error", seq, ack, code, code_name, message }
-// where stats = { objects, candidates, culled_by_frustum, culled_by_occlusion,
-// occluders_used, dropped_poses, gpu_us, total_us } and ID lists are plain arrays.
+// where stats = { candidates, occluders_used, dropped_poses, gpu_us, total_us } (what is
+// on the wire; `deriveStats` adds objects, culled_by_frustum and culled_by_occlusion from
+// the Hello's object count and the visible set) and ID lists are plain arrays.
 
 /** First word of every frame: bytes 48 4D 43 4C ("HMCL") read as a little-endian u32. */
 export const MAGIC = 0x4c434d48;
 /** Version of the wire protocol this client speaks. */
-export const PROTOCOL_VERSION = 1;
-/** Words in the frame header. */
-export const HEADER_WORDS = 6;
+export const PROTOCOL_VERSION = 2;
+/** Words in the frame header: magic, version | kind << 16, seq, ack. */
+export const HEADER_WORDS = 4;
 /** Bytes in the frame header. */
 export const HEADER_BYTES = HEADER_WORDS * 4;
 /** Largest frame the decoder accepts. */
 export const MAX_FRAME_BYTES = 16 << 20;
 /** Words in the stats block of Full and Delta frames. */
-export const STATS_WORDS = 8;
+export const STATS_WORDS = 5;
+/** Most IDs a Delta frame carries per list (both counts share one word, 16 bits each). */
+export const MAX_DELTA_IDS = 0xffff;
 /** Words in a Pose payload. */
 export const POSE_PAYLOAD_WORDS = 13;
 /** Bit of a Pose frame's flags asking for a full frame; the only bit defined. */
 export const POSE_FLAG_WANT_FULL = 1;
 
-/** Frame kinds (header word 2). */
+/** Frame kinds (the high 16 bits of header word 1). */
 export const FrameKind = Object.freeze({ HELLO: 1, POSE: 2, FULL: 3, DELTA: 4, ERROR: 5 });
 const KIND_NAMES = ["", "hello", "pose", "full", "delta", "error"];
 
@@ -59,16 +63,41 @@ const ERROR_CODE_NAMES = [
 ];
 
 /** Stats words in wire order. */
-export const STATS_FIELDS = Object.freeze([
-  "objects",
-  "candidates",
-  "culled_by_frustum",
-  "culled_by_occlusion",
-  "occluders_used",
-  "dropped_poses",
-  "gpu_us",
-  "total_us",
-]);
+export const STATS_FIELDS = Object.freeze(["candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us"]);
+
+/**
+ * Objects removed by the frustum test: `objects - stats.candidates`, where `objects` is the
+ * scene's object count (the Hello's `object_count`); 0 for inconsistent input. Mirrors
+ * `FrameStats::culled_by_frustum`.
+ */
+export function culledByFrustum(stats, objects) {
+  return Math.max(0, objects - stats.candidates);
+}
+
+/**
+ * In-frustum objects removed by the occlusion test: `stats.candidates - visible`, where
+ * `visible` is the size of the visible set the frame describes (a Full frame's
+ * `ids.length`, or the set once a Delta is applied); 0 for inconsistent input. Mirrors
+ * `FrameStats::culled_by_occlusion`.
+ */
+export function culledByOcclusion(stats, visible) {
+  return Math.max(0, stats.candidates - visible);
+}
+
+/**
+ * The stats of a Full/Delta frame with what version 1 of the protocol also sent and a
+ * client now derives: `{objects, candidates, culled_by_frustum, culled_by_occlusion,
+ * occluders_used, dropped_poses, gpu_us, total_us}`, from the scene's object count (the
+ * Hello's `object_count`) and the size of the visible set once the frame is applied.
+ */
+export function deriveStats(stats, objects, visible) {
+  return {
+    objects,
+    ...stats,
+    culled_by_frustum: culledByFrustum(stats, objects),
+    culled_by_occlusion: culledByOcclusion(stats, visible),
+  };
+}
 
 /** The lowercase name of a frame kind code (`hello`, ...), or undefined. */
 export function kindName(code) {
@@ -92,8 +121,6 @@ const MESSAGES = {
     `unsupported protocol version ${f.found}, this build supports version ${f.supported}`,
   UnknownKind: (f) => `unknown frame kind ${f.kind} (expected 1 to 5)`,
   NonZeroAck: (f) => `${f.kind} frame has ack ${f.ack}, it must be 0`,
-  PayloadLengthMismatch: (f) =>
-    `payload length mismatch: the header declares ${f.declared} payload words, the frame carries ${f.actual}`,
   PayloadSize: (f) => `${f.kind} payload has ${f.actual} words, its fields need ${f.expected}`,
   NotAscending: (f) =>
     `${f.list} ids not strictly ascending: ${f.id} at index ${f.index} follows ${f.prev}`,
@@ -104,6 +131,8 @@ const MESSAGES = {
   UnknownErrorCode: (f) => `unknown error code ${f.code} (expected 1 to 6)`,
   RemovedAbsent: (f) => `delta removes id ${f.id}, which is not in the visible set`,
   AddedPresent: (f) => `delta adds id ${f.id}, which is already in the visible set`,
+  DeltaTooLarge: (f) =>
+    `delta lists too long: ${f.added} added and ${f.removed} removed ids, a delta frame carries at most ${MAX_DELTA_IDS} per list (send a full frame)`,
 };
 
 /**
@@ -150,11 +179,10 @@ export function decodeFrame(input) {
   const view = new DataView(bytes.buffer, bytes.byteOffset, len);
   const word = (i) => view.getUint32(i * 4, true);
   const magic = word(0);
-  const version = word(1);
-  const kindCode = word(2);
-  const seq = word(3);
-  const ack = word(4);
-  const declared = word(5);
+  const version = word(1) & 0xffff;
+  const kindCode = word(1) >>> 16;
+  const seq = word(2);
+  const ack = word(3);
   if (magic !== MAGIC) throw new FrameError("BadMagic", { found: magic });
   if (version !== PROTOCOL_VERSION) {
     throw new FrameError("UnsupportedVersion", { found: version, supported: PROTOCOL_VERSION });
@@ -164,10 +192,9 @@ export function decodeFrame(input) {
   if ((kind === "hello" || kind === "pose") && ack !== 0) {
     throw new FrameError("NonZeroAck", { kind, ack });
   }
+  // The payload: the rest of the frame, consumed front to back (`pos` counts payload
+  // words consumed).
   const words = len / 4 - HEADER_WORDS;
-  if (declared !== words) throw new FrameError("PayloadLengthMismatch", { declared, actual: words });
-
-  // The payload, consumed front to back (`pos` counts payload words consumed).
   let pos = 0;
   const sizeError = (more) => new FrameError("PayloadSize", { kind, expected: pos + more, actual: words });
   const fixed = (n) => {
@@ -246,7 +273,9 @@ export function decodeFrame(input) {
     }
     case "delta": {
       const s = stats();
-      const [addedCount, removedCount] = fixed(2);
+      const [counts] = fixed(1);
+      const addedCount = counts & 0xffff;
+      const removedCount = counts >>> 16;
       const start = tail(addedCount + removedCount);
       const added = ids("added", start, addedCount);
       const removed = ids("removed", start + addedCount, removedCount);
@@ -326,8 +355,13 @@ export function encodeFrame(frame) {
       for (const id of frame.ids) words.push(u32("id", id));
       break;
     case "delta":
+      if (frame.added.length > MAX_DELTA_IDS || frame.removed.length > MAX_DELTA_IDS) {
+        throw new TypeError(
+          `a delta frame carries at most ${MAX_DELTA_IDS} ids per list, got ${frame.added.length} added and ${frame.removed.length} removed: send a full frame`,
+        );
+      }
       pushStats(words, frame.stats);
-      words.push(frame.added.length, frame.removed.length);
+      words.push((frame.added.length | (frame.removed.length << 16)) >>> 0);
       for (const id of frame.added) words.push(u32("id", id));
       for (const id of frame.removed) words.push(u32("id", id));
       break;
@@ -341,7 +375,7 @@ export function encodeFrame(frame) {
   const out = new Uint8Array((HEADER_WORDS + payloadWords) * 4);
   const view = new DataView(out.buffer);
   const ack = frame.kind === "hello" || frame.kind === "pose" ? 0 : u32("ack", frame.ack ?? 0);
-  const header = [MAGIC, PROTOCOL_VERSION, kindCode, u32("seq", frame.seq), ack, payloadWords];
+  const header = [MAGIC, (PROTOCOL_VERSION | (kindCode << 16)) >>> 0, u32("seq", frame.seq), ack];
   header.forEach((w, i) => view.setUint32(i * 4, w, true));
   words.forEach((w, i) => view.setUint32((HEADER_WORDS + i) * 4, w, true));
   if (frame.kind === "pose") {
@@ -368,7 +402,9 @@ function pushStats(words, stats = {}) {
 
 /**
  * Checks what `encodeFrame` does not: strictly ascending (and, for a delta, disjoint)
- * ID lists and the size limit. Throws the `FrameError` that decoding would give.
+ * ID lists and the size limit; also that a delta's lists fit (at most `MAX_DELTA_IDS`
+ * each, else DeltaTooLarge, which `encodeFrame` refuses with a TypeError). Throws the
+ * `FrameError` that decoding would give.
  */
 export function validateFrame(frame) {
   let payload;
@@ -383,7 +419,10 @@ export function validateFrame(frame) {
       payload = STATS_WORDS + 1 + frame.ids.length;
       break;
     case "delta":
-      payload = STATS_WORDS + 2 + frame.added.length + frame.removed.length;
+      if (frame.added.length > MAX_DELTA_IDS || frame.removed.length > MAX_DELTA_IDS) {
+        throw new FrameError("DeltaTooLarge", { added: frame.added.length, removed: frame.removed.length });
+      }
+      payload = STATS_WORDS + 1 + frame.added.length + frame.removed.length;
       break;
     case "error":
       payload = 2 + Math.ceil(utf8Encoder.encode(frame.message).length / 4);

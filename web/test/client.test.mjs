@@ -5,10 +5,13 @@
 import { test } from "node:test";
 import assert from "node:assert/strict";
 
-import { decodeFrame, encodeFrame } from "../src/codec.js";
+import { PROTOCOL_VERSION, decodeFrame, encodeFrame } from "../src/codec.js";
 import { HomcullClient, State, backoffDelay, normalizePose, percentile } from "../src/client.js";
 
-const STATS = { objects: 10, candidates: 6, culled_by_frustum: 4, culled_by_occlusion: 3, occluders_used: 2, dropped_poses: 0, gpu_us: 50, total_us: 90 };
+// The stats block of a frame as it travels, and as the client reports it for a visible set
+// of 3 in a scene of 10 objects (the hello's object count), with what it derives.
+const STATS = { candidates: 6, occluders_used: 2, dropped_poses: 0, gpu_us: 50, total_us: 90 };
+const DERIVED = { objects: 10, ...STATS, culled_by_frustum: 4, culled_by_occlusion: 3 };
 
 function harness({ fetchImpl, random = () => 0.5 } = {}) {
   const sockets = [];
@@ -33,7 +36,7 @@ function harness({ fetchImpl, random = () => 0.5 } = {}) {
     receiveBytes(bytes) {
       this.onmessage?.({ data: bytes.buffer });
     }
-    hello(info = { protocol_version: 1, adapter: "fake" }, objectCount = 10) {
+    hello(info = { protocol_version: PROTOCOL_VERSION, adapter: "fake" }, objectCount = 10) {
       this.receive({ kind: "hello", seq: 0, ack: 0, object_count: objectCount, info_json: JSON.stringify(info) });
     }
     drop(code = 1006, reason = "") {
@@ -207,6 +210,7 @@ test("full and delta frames update the visible set; RTT is measured per pose by 
   assert.deepEqual(v.added, [1, 4, 7]);
   assert.equal(v.full, true);
   assert.equal(v.rttMs, 30);
+  assert.deepEqual(v.stats, DERIVED, "stats with objects and the culled counts derived");
   assert.deepEqual(v.pose.position, [1, Math.fround(1.7), 0]);
   assert.ok(h.client.visible.has(4));
 
@@ -225,13 +229,14 @@ test("full and delta frames update the visible set; RTT is measured per pose by 
   assert.equal(v.full, false);
   assert.equal(v.rttMs, 15);
   assert.equal(v.ack, 3);
-  assert.equal(v.stats.dropped_poses, 1);
+  assert.deepEqual(v.stats, { ...DERIVED, dropped_poses: 1 });
   assert.equal(h.client._inFlight.size, 0, "answered and superseded poses are forgotten");
   const s = h.of("stats").at(-1);
   assert.equal(s.rtt.count, 2);
   assert.equal(s.rtt.p50, 15);
   assert.equal(s.rtt.p95, 30);
-  assert.deepEqual(h.client.lastFrame, { ack: 3, seq: 2, full: false, stats: { ...STATS, dropped_poses: 1 }, rttMs: 15 });
+  assert.deepEqual(s.stats, { ...DERIVED, dropped_poses: 1 });
+  assert.deepEqual(h.client.lastFrame, { ack: 3, seq: 2, full: false, stats: { ...DERIVED, dropped_poses: 1 }, rttMs: 15 });
 });
 
 test("a delta that does not apply is reported and triggers a full resync", () => {
@@ -342,11 +347,12 @@ test("protocol mismatch and fatal error frames stop the client; other errors do 
   const h = harness();
   h.client.connect();
   const bytes = encodeFrame({ kind: "hello", seq: 0, ack: 0, object_count: 1, info_json: "{}" });
-  new DataView(bytes.buffer).setUint32(4, 2, true); // version 2
+  // Header word 1 of a version 1 frame is its version alone (the kind had its own word).
+  new DataView(bytes.buffer).setUint32(4, 1, true);
   h.last().receiveBytes(bytes);
   const e = h.of("error").at(-1);
   assert.equal(e.fatal, true);
-  assert.match(e.message, /protocol mismatch: the server speaks version 2/);
+  assert.match(e.message, /protocol mismatch: the server speaks version 1, this client version 2/);
   assert.equal(h.client.state, State.FAILED);
   assert.equal(h.last().closed.code, 1000);
 

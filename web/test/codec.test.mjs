@@ -13,9 +13,13 @@ import {
   FrameError,
   HEADER_BYTES,
   MAGIC,
+  MAX_DELTA_IDS,
   MAX_FRAME_BYTES,
   PROTOCOL_VERSION,
+  culledByFrustum,
+  culledByOcclusion,
   decodeFrame,
+  deriveStats,
   encodeFrame,
   encodePose,
   validateFrame,
@@ -69,9 +73,9 @@ for (const entry of manifest.frames) {
   test(`golden ${entry.file}: decodes to the listed fields`, () => {
     const bytes = readHex(entry.file);
     assert.equal(bytes.length, entry.byte_length);
-    assert.equal(bytes.length / 4 - 6, entry.payload_words);
+    assert.equal(bytes.length / 4 - 4, entry.payload_words);
     const view = new DataView(bytes.buffer);
-    assert.equal(view.getUint32(8, true), entry.kind_code);
+    assert.equal(view.getUint32(4, true), (manifest.protocol_version | (entry.kind_code << 16)) >>> 0);
     const frame = decodeFrame(bytes);
     const want = expectedFrame(entry);
     assert.deepEqual(frame, want);
@@ -105,6 +109,17 @@ for (const entry of manifest.frames) {
     }
   });
 
+  if (entry.derived !== undefined) {
+    test(`golden ${entry.file}: derived stats`, () => {
+      const frame = decodeFrame(readHex(entry.file));
+      const visible = entry.kind === "full" ? entry.ids.length : entry.visible_after.length;
+      const { objects, culled_by_frustum, culled_by_occlusion } = entry.derived;
+      assert.equal(culledByFrustum(frame.stats, objects), culled_by_frustum);
+      assert.equal(culledByOcclusion(frame.stats, visible), culled_by_occlusion);
+      assert.deepEqual(deriveStats(frame.stats, objects, visible), { ...entry.stats, ...entry.derived });
+    });
+  }
+
   if (entry.base !== undefined) {
     test(`golden ${entry.file}: applied to ${entry.base} gives visible_after`, () => {
       const base = decodeFrame(readHex(entry.base));
@@ -123,13 +138,16 @@ function bytes(words) {
   return out;
 }
 
+/** Header word 1: the version in the low 16 bits, the kind in the high 16 bits. */
+const versionKind = (version, kind) => (version | (kind << 16)) >>> 0;
+
 function frame(kind, seq, ack, payload) {
-  return bytes([MAGIC, PROTOCOL_VERSION, kind, seq, ack, payload.length, ...payload]);
+  return bytes([MAGIC, versionKind(PROTOCOL_VERSION, kind), seq, ack, ...payload]);
 }
 
-const stats = () => [10, 9, 1, 2, 3, 0, 100, 200];
+const stats = () => [9, 3, 0, 100, 200];
 const full = (ids) => frame(3, 1, 1, [...stats(), ids.length, ...ids]);
-const delta = (added, removed) => frame(4, 1, 1, [...stats(), added.length, removed.length, ...added, ...removed]);
+const delta = (added, removed) => frame(4, 1, 1, [...stats(), added.length | (removed.length << 16), ...added, ...removed]);
 
 function textPayload(first, text, pad) {
   const b = [...(typeof text === "string" ? new TextEncoder().encode(text) : text)];
@@ -157,45 +175,58 @@ function cases() {
   long.set(bytes([MAGIC]));
   const unaligned = new Uint8Array([...full([1, 2]), 0]);
   const poseWithAck = pose(0);
-  poseWithAck.set(bytes([3]), 16);
+  poseWithAck.set(bytes([3]), 12);
   return [
     ["empty", new Uint8Array(0), "TooShort", { len: 0 }],
-    ["header minus a word", frame(3, 0, 0, []).slice(0, 20), "TooShort", { len: 20 }],
+    ["header minus a word", frame(3, 0, 0, []).slice(0, 12), "TooShort", { len: 12 }],
     ["over the limit, checked first", long, "TooLong", { len: MAX_FRAME_BYTES + 4 }],
     ["over the limit by a byte", new Uint8Array(MAX_FRAME_BYTES + 1).fill(0xff), "TooLong", { len: MAX_FRAME_BYTES + 1 }],
-    ["a stray byte", unaligned, "NotWordAligned", { len: 69 }],
-    ["big-endian magic", bytes([0x484d434c, 1, 3, 0, 0, 0]), "BadMagic", { found: 0x484d434c }],
-    ["zero magic", new Uint8Array(24), "BadMagic", { found: 0 }],
-    ["version 2", bytes([MAGIC, 2, 3, 0, 0, 0]), "UnsupportedVersion", { found: 2, supported: 1 }],
-    ["version 0", bytes([MAGIC, 0, 3, 0, 0, 0]), "UnsupportedVersion", { found: 0, supported: 1 }],
+    ["a stray byte", unaligned, "NotWordAligned", { len: 49 }],
+    ["big-endian magic", bytes([0x484d434c, versionKind(2, 3), 0, 0]), "BadMagic", { found: 0x484d434c }],
+    ["zero magic", new Uint8Array(16), "BadMagic", { found: 0 }],
+    [
+      "a version 1 full frame (version word 1, kind in word 2, payload length in word 5)",
+      bytes([MAGIC, 1, 3, 2, 42, 9, 1234, 10, 1224, 4, 2, 1, 850, 1200, 0]),
+      "UnsupportedVersion",
+      { found: 1, supported: 2 },
+    ],
+    ["version 3", bytes([MAGIC, versionKind(3, 3), 0, 0]), "UnsupportedVersion", { found: 3, supported: 2 }],
+    ["version 0", bytes([MAGIC, versionKind(0, 3), 0, 0]), "UnsupportedVersion", { found: 0, supported: 2 }],
+    ["version and kind swapped", bytes([MAGIC, versionKind(3, 2), 0, 0]), "UnsupportedVersion", { found: 3, supported: 2 }],
     ["kind 0", frame(0, 0, 0, []), "UnknownKind", { kind: 0 }],
     ["kind 6", frame(6, 0, 0, []), "UnknownKind", { kind: 6 }],
+    ["kind 0xffff", frame(0xffff, 0, 0, []), "UnknownKind", { kind: 0xffff }],
     ["hello with an ack", frame(1, 1, 9, textPayload(5, "{}", 0)), "NonZeroAck", { kind: "hello", ack: 9 }],
     ["pose with an ack", poseWithAck, "NonZeroAck", { kind: "pose", ack: 3 }],
-    [
-      "declared one word more than present",
-      bytes([MAGIC, 1, 3, 0, 0, 10, 0, 0, 0, 0, 0, 0, 0, 0, 0]),
-      "PayloadLengthMismatch",
-      { declared: 10, actual: 9 },
-    ],
-    ["declared u32::MAX words", bytes([MAGIC, 1, 3, 0, 0, U32_MAX]), "PayloadLengthMismatch", { declared: U32_MAX, actual: 0 }],
     ["pose one word short", frame(2, 0, 0, new Array(12).fill(0)), "PayloadSize", { kind: "pose", expected: 13, actual: 12 }],
     ["pose one word long", frame(2, 0, 0, new Array(14).fill(0)), "PayloadSize", { kind: "pose", expected: 13, actual: 14 }],
-    ["full without its count", frame(3, 0, 0, stats()), "PayloadSize", { kind: "full", expected: 9, actual: 8 }],
-    ["full count larger than its ids", frame(3, 0, 0, [...stats(), 5, 1, 2, 3]), "PayloadSize", { kind: "full", expected: 14, actual: 12 }],
+    ["full without its count", frame(3, 0, 0, stats()), "PayloadSize", { kind: "full", expected: 6, actual: 5 }],
+    ["full count larger than its ids", frame(3, 0, 0, [...stats(), 5, 1, 2, 3]), "PayloadSize", { kind: "full", expected: 11, actual: 9 }],
     [
       "full count u32::MAX (must not allocate it)",
       frame(3, 0, 0, [...stats(), U32_MAX, 1]),
       "PayloadSize",
-      { kind: "full", expected: 9 + U32_MAX, actual: 10 },
+      { kind: "full", expected: 6 + U32_MAX, actual: 7 },
     ],
     [
-      "delta counts whose sum overflows u32",
-      frame(4, 0, 0, [...stats(), U32_MAX, 2, 1]),
+      "delta counts both 65535 (must not allocate them)",
+      frame(4, 0, 0, [...stats(), U32_MAX, 1]),
       "PayloadSize",
-      { kind: "delta", expected: 10 + U32_MAX + 2, actual: 11 },
+      { kind: "delta", expected: 6 + 2 * 65535, actual: 7 },
     ],
-    ["delta without its counts", frame(4, 0, 0, new Array(9).fill(0)), "PayloadSize", { kind: "delta", expected: 10, actual: 9 }],
+    [
+      "delta counts word: 1 added in the low half, 1 removed in the high half",
+      frame(4, 0, 0, [...stats(), 0x00010001, 5]),
+      "PayloadSize",
+      { kind: "delta", expected: 8, actual: 7 },
+    ],
+    [
+      "delta with its counts read as v1 (two words)",
+      frame(4, 0, 0, [...stats(), 1, 1, 5, 6]),
+      "PayloadSize",
+      { kind: "delta", expected: 7, actual: 9 },
+    ],
+    ["delta without its counts", frame(4, 0, 0, new Array(5).fill(0)), "PayloadSize", { kind: "delta", expected: 6, actual: 5 }],
     [
       "hello JSON longer than the payload",
       frame(1, 0, 0, [3, U32_MAX, 0x20207b7b]),
@@ -262,8 +293,9 @@ test("every crafted input is rejected as the Rust decoder rejects it", () => {
     );
     seen.add(variant);
   }
-  // Every decoder error variant is exercised (RemovedAbsent/AddedPresent: visible.test.mjs).
-  assert.equal(seen.size, 15);
+  // Every decoder error variant is exercised (RemovedAbsent/AddedPresent: visible.test.mjs;
+  // DeltaTooLarge comes from validateFrame, below).
+  assert.equal(seen.size, 14);
 });
 
 test("error messages read like the Rust ones", () => {
@@ -272,8 +304,12 @@ test("error messages read like the Rust ones", () => {
   assert.match(new FrameError("TooShort", { len: 3 }).message, new RegExp(String(HEADER_BYTES)));
   assert.equal(new FrameError("BadFlags", { flags: 0x80000001 }).message, "pose flags 0x80000001 set bits other than bit 0 (want_full)");
   assert.equal(
-    new FrameError("UnsupportedVersion", { found: 7, supported: 1 }).message,
-    "unsupported protocol version 7, this build supports version 1",
+    new FrameError("UnsupportedVersion", { found: 7, supported: 2 }).message,
+    "unsupported protocol version 7, this build supports version 2",
+  );
+  assert.equal(
+    new FrameError("DeltaTooLarge", { added: 65536, removed: 0 }).message,
+    "delta lists too long: 65536 added and 0 removed ids, a delta frame carries at most 65535 per list (send a full frame)",
   );
 });
 
@@ -297,8 +333,9 @@ test("truncations of valid frames are rejected", () => {
 test("encode then decode round-trips, and validate agrees with decode", () => {
   const frames = [
     { kind: "hello", seq: 0, ack: 0, object_count: 3, info_json: '{"a":"ü€😀"}' },
-    { kind: "full", seq: 5, ack: 4, stats: { objects: 3, candidates: 2, culled_by_frustum: 1, culled_by_occlusion: 0, occluders_used: 1, dropped_poses: 0, gpu_us: 7, total_us: 9 }, ids: [0, 2, 0xffffffff] },
-    { kind: "delta", seq: 6, ack: 9, stats: { objects: 3, candidates: 0, culled_by_frustum: 3, culled_by_occlusion: 0, occluders_used: 0, dropped_poses: 2, gpu_us: 0, total_us: 1 }, added: [], removed: [0, 2] },
+    { kind: "full", seq: 5, ack: 4, stats: { candidates: 2, occluders_used: 1, dropped_poses: 0, gpu_us: 7, total_us: 9 }, ids: [0, 2, 0xffffffff] },
+    { kind: "delta", seq: 6, ack: 9, stats: { candidates: 0, occluders_used: 0, dropped_poses: 2, gpu_us: 0, total_us: 1 }, added: [], removed: [0, 2] },
+    { kind: "delta", seq: 7, ack: 10, stats: { candidates: 9, occluders_used: 1, dropped_poses: 0, gpu_us: 3, total_us: 4 }, added: [1, 5, 7], removed: [2, 3] },
     { kind: "error", seq: 7, ack: 0, code: 4, code_name: "overloaded", message: "busy" },
     { kind: "pose", seq: 1, ack: 0, want_full: false, position: [1.5, -0, 3], rotation: [0, 0, 0, 1], fov_y_deg: 75, viewport: [1, 8192], near: 0.5, far: 100 },
   ];
@@ -316,6 +353,48 @@ test("encode then decode round-trips, and validate agrees with decode", () => {
   assert.throws(() => decodeFrame(encodeFrame(badDelta)), { variant: "IdInBothLists" });
   const huge = { kind: "full", seq: 0, ack: 0, stats: {}, ids: Array.from({ length: MAX_FRAME_BYTES / 4 }, (_, i) => i) };
   assert.throws(() => validateFrame(huge), { variant: "TooLong" });
+});
+
+test("a delta carries at most 65535 ids per list", () => {
+  const range = (from, n) => Array.from({ length: n }, (_, i) => from + i);
+  assert.equal(MAX_DELTA_IDS, 65535);
+  // Both lists full: the counts word is all ones.
+  const max = { kind: "delta", seq: 1, ack: 1, stats: {}, added: range(0, MAX_DELTA_IDS), removed: range(MAX_DELTA_IDS, MAX_DELTA_IDS) };
+  validateFrame(max);
+  const bytes = encodeFrame(max);
+  assert.equal(bytes.length, 16 + 4 * (5 + 1 + 2 * MAX_DELTA_IDS));
+  assert.equal(new DataView(bytes.buffer).getUint32(36, true), 0xffffffff);
+  const back = decodeFrame(bytes);
+  assert.equal(back.added.length, MAX_DELTA_IDS);
+  assert.deepEqual(back.removed, max.removed);
+  // One more in either list does not fit: validate reports it, encode refuses it.
+  for (const [added, removed] of [
+    [range(0, MAX_DELTA_IDS + 1), []],
+    [[0, 1, 2], range(3, MAX_DELTA_IDS + 1)],
+  ]) {
+    const f = { kind: "delta", seq: 1, ack: 1, stats: {}, added, removed };
+    assert.throws(() => validateFrame(f), { variant: "DeltaTooLarge", fields: { added: added.length, removed: removed.length } });
+    assert.throws(() => encodeFrame(f), TypeError);
+  }
+});
+
+test("derived stats", () => {
+  const s = { candidates: 10, occluders_used: 2, dropped_poses: 1, gpu_us: 850, total_us: 1200 };
+  assert.equal(culledByFrustum(s, 1234), 1224);
+  assert.equal(culledByOcclusion(s, 6), 4);
+  // Inconsistent input does not go negative.
+  assert.equal(culledByFrustum(s, 3), 0);
+  assert.equal(culledByOcclusion(s, 11), 0);
+  assert.deepEqual(deriveStats(s, 1234, 6), {
+    objects: 1234,
+    candidates: 10,
+    occluders_used: 2,
+    dropped_poses: 1,
+    gpu_us: 850,
+    total_us: 1200,
+    culled_by_frustum: 1224,
+    culled_by_occlusion: 4,
+  });
 });
 
 test("encoder refuses fields it cannot write", () => {
