@@ -410,14 +410,25 @@ function connect(sceneId) {
   client.connect();
 }
 
+/**
+ * Degrees added to the vertical field of view of the pose sent for culling. The server
+ * culls a slightly wider view than the page draws, from the same eye and at the same
+ * pixel density, so that turning does not pop objects in at the screen's edge while the
+ * answer for the new pose is on its way (a wider view from the same eye only adds
+ * objects: culling stays conservative for what is drawn).
+ */
+export const GUARD_FOV_DEG = 10;
+
 function currentPose() {
   const w = Math.max(1, Math.round(canvas.clientWidth));
   const h = Math.max(1, Math.round(canvas.clientHeight));
+  const fov = Math.min(camera.fov + GUARD_FOV_DEG, 170);
+  const grow = Math.tan((fov * Math.PI) / 360) / Math.tan((camera.fov * Math.PI) / 360);
   return {
     position: camera.position.toArray(),
     rotation: camera.quaternion.toArray(),
-    fov_y_deg: camera.fov,
-    viewport: [w, h],
+    fov_y_deg: fov,
+    viewport: [Math.round(w * grow), Math.round(h * grow)],
     near: camera.near,
     far: camera.far,
   };

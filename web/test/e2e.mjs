@@ -31,6 +31,10 @@ const ARTIFACTS = resolve(process.env.HOMCULL_ARTIFACTS ?? join(webDir, "test-ar
 const TOTAL_TIMEOUT_MS = 170_000;
 const STEP_TIMEOUT_MS = 20_000;
 const VIEWPORT = { width: 960, height: 540 };
+// The page culls its view plus a guard band (web/src/main.js GUARD_FOV_DEG = 10°: fov 60° → 70°)
+// at the canvas's pixel density.
+const CULL_GROW = Math.tan((70 * Math.PI) / 360) / Math.tan((60 * Math.PI) / 360);
+const CULL_VIEWPORT = [Math.round(VIEWPORT.width * CULL_GROW), Math.round(VIEWPORT.height * CULL_GROW)];
 
 const log = (...a) => console.log("e2e:", ...a);
 let server = null;
@@ -159,8 +163,10 @@ async function main() {
   log("viewer ready: first visible set drawn");
   const first = await page.evaluate(() => ({ frame: window.homcull.lastFrame, pose: window.homcull.lastPose }));
   assert.ok(first.frame.ids.length > 0, "the start pose sees something");
-  assert.deepEqual(first.pose.viewport, [VIEWPORT.width, VIEWPORT.height], "the cull uses the canvas size");
-  assert.equal(first.pose.fov_y_deg, 60);
+  // The cull covers the camera's view plus the guard band (web/src/main.js GUARD_FOV_DEG),
+  // at the canvas's pixel density.
+  assert.deepEqual(first.pose.viewport, CULL_VIEWPORT, "the cull uses the canvas size grown by the guard band");
+  assert.equal(first.pose.fov_y_deg, 70);
 
   // The scripted walk: 20 steps of 5 m east along the street at z = 0, eye height 1.7 m,
   // looking along +x with some turning and nodding.
@@ -190,7 +196,7 @@ async function main() {
     // The pose sent is the camera's.
     const q = yawPitchQuat(step.yaw, step.pitch);
     pose.rotation.forEach((v, k) => assert.ok(Math.abs(v - q[k]) < 1e-5, `${where}: rotation ${pose.rotation} vs ${q}`));
-    assert.deepEqual(pose.viewport, [VIEWPORT.width, VIEWPORT.height], `${where}: viewport`);
+    assert.deepEqual(pose.viewport, CULL_VIEWPORT, `${where}: viewport`);
 
     // Drawn meshes == the set the server streamed.
     assert.deepEqual(drawn, frame.ids, `${where}: drawn meshes differ from the streamed set`);
