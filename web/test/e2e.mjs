@@ -252,10 +252,80 @@ async function main() {
   assert.ok(occlusionShare > 0, "occlusion culling removed something at street level");
   assert.deepEqual(consoleErrors, [], "console errors during the walk");
 
+
   const frames = (n) => page.evaluate((k) => new Promise((r) => {
     const tick = () => (--k <= 0 ? r() : requestAnimationFrame(tick));
     requestAnimationFrame(tick);
   }), n);
+
+  // Walking at normal speed: the camera moves 1.4 m/s along the street and turns 20°/s,
+  // one step per animation frame, for WALK_SECONDS. For sampled frames, what the exact
+  // oracle sees at the camera's own pose (its fov and canvas, no guard band) must all
+  // be drawn: an object the oracle sees but the page did not draw is a pop.
+  const WALK_SECONDS = 3;
+  // Stand at the start first and wait for its answer: a walk, not a teleport.
+  await page.evaluate(() => window.homcull.setPose([40, 1.7, 0], -90, 0));
+  await page.waitForFunction(
+    () => {
+      const h = window.homcull;
+      return h.lastPose && h.lastPose.position[0] === 40 && h.lastFrame && h.lastFrame.ack === h.lastPose.seq;
+    },
+    null,
+    { timeout: STEP_TIMEOUT_MS },
+  );
+  await frames(2);
+  const record = await page.evaluate(
+    (seconds) =>
+      new Promise((resolve) => {
+        const h = window.homcull;
+        const out = [];
+        const t0 = performance.now();
+        let set = null; // the pose set last tick, rendered this tick
+        const tick = () => {
+          const t = (performance.now() - t0) / 1000;
+          if (set) out.push({ ...set, drawn: h.drawnIds() });
+          if (t >= seconds) return resolve(out);
+          set = { position: [40 + 1.4 * t, 1.7, 0], yaw: -90 + 20 * t, pitch: 0 };
+          h.setPose(set.position, set.yaw, set.pitch);
+          requestAnimationFrame(tick);
+        };
+        requestAnimationFrame(tick);
+      }),
+    WALK_SECONDS,
+  );
+  const sample = record.filter((_, i) => i % Math.max(1, Math.floor(record.length / 25)) === 0);
+  let popped = 0;
+  let oracleSeen = 0;
+  const missing = new Set();
+  const late = [];
+  for (const [k, f] of sample.entries()) {
+    const exact = await getJson(`${base}/v1/scenes/demo/cull`, {
+      method: "POST",
+      headers: { "content-type": "application/json" },
+      body: JSON.stringify({
+        pose: { position: f.position, rotation: yawPitchQuat(f.yaw, f.pitch), fov_y_deg: 60, viewport: [VIEWPORT.width, VIEWPORT.height], near: first.pose.near, far: first.pose.far },
+        options: { method: "exact" },
+      }),
+    });
+    const drawn = new Set(f.drawn);
+    for (const id of exact.visible) {
+      oracleSeen += 1;
+      if (!drawn.has(id)) {
+        popped += 1;
+        missing.add(id);
+        late.push(`frame ${k}: ${id}`);
+      }
+    }
+  }
+  log(
+    `walk at 1.4 m/s turning 20°/s: ${record.length} frames in ${WALK_SECONDS} s, ${sample.length} checked against the exact oracle: ` +
+      `${popped} of ${oracleSeen} oracle-visible object sightings not drawn (${missing.size} distinct objects)`,
+  );
+  if (popped > 0) log(`late (drawn set one round trip behind the camera): ${late.join("; ")}`);
+  // Turning is covered by the guard band; what moving reveals arrives one round trip
+  // late (about 100 ms on lavapipe). This bound catches regressions; "nothing pops" is
+  // not claimed on a software GPU.
+  assert.ok(popped <= 0.01 * oracleSeen, `more than 1 % of oracle sightings not drawn while walking: ${late.join("; ")}`);
 
   // Screenshots: normal view, debug view, debug view from above.
   await page.evaluate(() => window.homcull.setPose([0, 1.7, 0], -90, 0));
