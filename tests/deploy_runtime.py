@@ -309,7 +309,7 @@ class WebSocket:
 
 
 # --------------------------------------------------------------------------- binary frames
-# Layout: proto/src/frame.rs (module docs); vectors: proto/tests/golden/. Both wire versions
+# Layout: proto/src/frame/ (module docs); vectors: proto/tests/golden/. Both wire versions
 # are understood: 1 (6-word header with kind and payload_words words, 8 stats words, two
 # delta count words) and 2 (4-word header with `version | kind << 16`, 5 stats words, one
 # delta count word `added | removed << 16`). The low 16 bits of word 1 are the version in
@@ -350,7 +350,7 @@ def decode_frame(b: bytes) -> dict:
     version = w1 & 0xFFFF
     expect(magic == MAGIC, f"bad magic {magic:#x}")
     expect(version in VERSIONS, f"wire protocol version {version}: tests/deploy_runtime.py speaks "
-                                f"{VERSIONS}; teach its codec the new layout (proto/src/frame.rs)")
+                                f"{VERSIONS}; teach its codec the new layout (proto/src/frame/)")
     if version == 1:
         expect(len(b) >= 24, f"v1 frame of {len(b)} bytes")
         _, _, kind, seq, ack, words = struct.unpack_from("<6I", b)

@@ -1,6 +1,6 @@
 // Binary WebSocket frames of the homcull protocol (version 2), encoder and decoder.
 //
-// This mirrors `proto/src/frame.rs` exactly (read its module docs for the layout): a
+// This mirrors `proto/src/frame/` exactly (read its module docs for the layout): a
 // frame is a sequence of little-endian u32 words, f32 travel as their IEEE-754 bits, a
 // 4-word header (magic, version | kind << 16, seq, ack) and a payload per kind that
 // runs to the end of the frame.

@@ -1,5 +1,5 @@
 // The visible set a client keeps: the IDs of the last Full frame with every Delta since
-// applied. Mirrors `apply_delta` and `diff` of `proto/src/frame.rs`.
+// applied. Mirrors `apply_delta` and `diff` of `proto/src/frame/`.
 
 import { FrameError, checkAscending, checkDisjoint } from "./codec.js";
 
