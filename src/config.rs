@@ -29,6 +29,8 @@ pub enum Command {
     Cull(CullArgs),
     /// Run every method and the exact oracle on the same poses and report quality and speed.
     Eval(EvalArgs),
+    /// Measure quality and speed on every scene and write DIR/report.md plus PNG plots.
+    Report(ReportArgs),
 }
 
 /// Which scene to load.
@@ -214,4 +216,18 @@ pub struct LoadgenArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `homcull report`: the evaluation and scaling report (issue 6).
+#[derive(Debug, Clone, Args)]
+pub struct ReportArgs {
+    /// Where report.md and the plots go (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// A small, fast version (16 poses at 480x270, fewer sizes and clients): a smoke test.
+    #[arg(long)]
+    pub quick: bool,
+    /// The scenes to report on: every .glb in it, plus the demo city.
+    #[arg(long, default_value = "../shared/scenes")]
+    pub scenes_dir: PathBuf,
 }

@@ -21,6 +21,7 @@
 //! - [`pvs`]: the OpenArena maps' own potentially-visible sets, an independent check.
 //! - [`server`]: the HTTP/WebSocket server (axum), its GPU worker and data dir.
 //! - [`loadgen`]: a bounded loopback load generator for the server.
+//! - [`report`]: `homcull report`, every evaluation side by side as markdown + PNG plots.
 //! - [`config`]: the command line.
 
 pub mod bvh;
@@ -35,6 +36,7 @@ pub mod hom;
 pub mod loadgen;
 pub mod occluders;
 pub mod pvs;
+pub mod report;
 pub mod sampler;
 pub mod scene;
 pub mod server;

@@ -31,6 +31,7 @@ fn main() -> Result<()> {
         Some(Command::Loadgen(a)) => homcull::loadgen::main(a),
         Some(Command::Cull(a)) => cull(a),
         Some(Command::Eval(a)) => eval(a),
+        Some(Command::Report(a)) => homcull::report::main(a),
         None => serve(ServeArgs::default()),
     }
 }

@@ -811,3 +811,74 @@ mod tests {
         }
     }
 }
+
+/// A demo city with `blocks_per_side` × `blocks_per_side` blocks (at least 1), named
+/// `demo_N`, for object-count scaling: about 29 objects per block. It draws from the
+/// same seed and generator as [`demo_city`], whose output (and object IDs) it leaves
+/// untouched; `demo_city_sized(12)` builds the same objects as `demo_city()`.
+pub fn demo_city_sized(blocks_per_side: usize) -> Scene {
+    let n = blocks_per_side.max(1);
+    let mut rng = ChaCha8Rng::seed_from_u64(SEED);
+    let xs = axis_layout_sized(&mut rng, n);
+    let zs = axis_layout_sized(&mut rng, n);
+    let mut city = City::default();
+    add_ground(&mut city, &xs, &zs);
+    for bz in 0..n {
+        for bx in 0..n {
+            let block = Rect::from_spans(xs.blocks[bx], zs.blocks[bz]);
+            add_block(&mut city, &mut rng, (bx, bz), block);
+        }
+    }
+    add_street_cars(&mut city, &mut rng, &xs, &zs);
+    city.builder.build(format!("demo_{n}"))
+}
+
+/// [`axis_layout`] with `n` blocks instead of `BLOCKS_PER_SIDE`.
+fn axis_layout_sized(rng: &mut ChaCha8Rng, n: usize) -> AxisLayout {
+    let mut streets = Vec::with_capacity(n + 1);
+    let mut blocks = Vec::with_capacity(n);
+    let mut at = 0.0;
+    for i in 0..=n {
+        let width = between(rng, STREET_WIDTH);
+        streets.push(Span {
+            lo: at,
+            hi: at + width,
+        });
+        at += width;
+        if i < n {
+            let size = between(rng, BLOCK_SIZE);
+            blocks.push(Span {
+                lo: at,
+                hi: at + size,
+            });
+            at += size;
+        }
+    }
+    let shift = streets[n / 2].mid();
+    let shifted = |s: &Span| Span {
+        lo: s.lo - shift,
+        hi: s.hi - shift,
+    };
+    AxisLayout {
+        streets: streets.iter().map(shifted).collect(),
+        blocks: blocks.iter().map(shifted).collect(),
+    }
+}
+
+#[cfg(test)]
+mod sized_tests {
+    use super::*;
+
+    #[test]
+    fn sized_12_is_the_demo_city() {
+        let (a, b) = (demo_city(), demo_city_sized(12));
+        assert_eq!(a.objects.len(), b.objects.len());
+        assert!(
+            a.objects
+                .iter()
+                .zip(&b.objects)
+                .all(|(x, y)| x.name == y.name && x.aabb == y.aabb)
+        );
+        assert!(demo_city_sized(2).objects.len() < a.objects.len());
+    }
+}

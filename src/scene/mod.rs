@@ -13,6 +13,7 @@ mod gltf_load;
 mod subbounds;
 
 pub use demo::demo_city;
+pub use demo::demo_city_sized;
 pub use glb_write::write_glb;
 pub use gltf_load::{LoadError, load_glb_bytes, load_path};
 pub use subbounds::{SubBoundsParams, split_into_groups};

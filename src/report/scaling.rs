@@ -1,0 +1,250 @@
+//! Sections 4 and 5: time per pose against viewport size and batch size (4) and
+//! against object count (5).
+
+use std::fmt::Write as _;
+use std::time::Instant;
+
+use anyhow::Result;
+use homcull_proto::{CullOptions, Method};
+
+use super::plot::{Chart, Series, loglog_slope};
+use super::{Loaded, Report, progress, spec};
+use crate::eval::{MethodSpec, evaluate};
+use crate::occluders::OccluderParams;
+use crate::scene::{demo_city, demo_city_sized};
+
+fn slope_text(points: &[(f64, f64)]) -> String {
+    loglog_slope(points).map_or("–".into(), |s| format!("{s:.2}"))
+}
+
+/// Time per pose of hom, hzb and the exact oracle on the demo city per viewport.
+pub(super) fn viewport(r: &mut Report) -> Result<()> {
+    let p = r.plan.clone();
+    let city = Loaded::new(demo_city());
+    let methods = [
+        spec("hom-raster", 1.0),
+        MethodSpec::parse("hzb", 1.0, Default::default()).map_err(anyhow::Error::msg)?,
+    ];
+    let _ = writeln!(
+        r.md,
+        "\n## 4. Scaling\n\n### Viewport size\n\n\
+         Demo city, {} poses per viewport (the same eye positions: seed {}), batch {}, \
+         budget {} triangles. Time per pose p50.\n\n\
+         | viewport | pixels | hom ms | hzb ms | exact ms | hom efficiency |\n\
+         |---|---:|---:|---:|---:|---:|",
+        p.viewport_poses,
+        super::SEED,
+        p.batch.min(16),
+        OccluderParams::default().budget_triangles
+    );
+    let names = ["hom-raster", "hzb", "exact"];
+    let mut pts: Vec<Vec<(f64, f64)>> = vec![Vec::new(); names.len()];
+    for (i, &vp) in p.viewports.iter().enumerate() {
+        progress(
+            "viewport",
+            i,
+            p.viewports.len(),
+            &format!("{}x{}", vp[0], vp[1]),
+        );
+        let cams = city.cams(p.viewport_poses, vp)?;
+        let mut engine = r.engine(
+            city.scene.clone(),
+            OccluderParams::default().budget_triangles,
+        );
+        let e = evaluate(&mut engine, &cams, &methods, p.batch.min(16), None)?;
+        let px = vp[0] as f64 * vp[1] as f64;
+        let ms: Vec<f64> = names
+            .iter()
+            .map(|n| e.methods[*n].ms_per_pose.p50)
+            .collect();
+        for (k, m) in ms.iter().enumerate() {
+            pts[k].push((px, *m));
+        }
+        let _ = writeln!(
+            r.md,
+            "| {}×{} | {} | {:.2} | {:.2} | {:.2} | {:.3} |",
+            vp[0], vp[1], px, ms[0], ms[1], ms[2], e.methods["hom-raster"].efficiency
+        );
+    }
+    let slopes: Vec<String> = names
+        .iter()
+        .zip(&pts)
+        .map(|(n, p)| format!("{n} {}", slope_text(p)))
+        .collect();
+    let _ = writeln!(
+        r.md,
+        "\nLog-log slope of time per pose against pixel count (1 = linear in pixels, \
+         0 = independent of resolution): {}.",
+        slopes.join(", ")
+    );
+    let series: Vec<Series> = names
+        .iter()
+        .zip(pts)
+        .map(|(n, points)| Series {
+            label: n.to_string(),
+            points,
+        })
+        .collect();
+    r.plot(
+        "viewport.png",
+        &Chart {
+            title: "time per pose vs viewport (demo city)",
+            x_label: "pixels",
+            y_label: "ms per pose (p50)",
+            log_x: true,
+            log_y: true,
+        },
+        &series,
+    )
+}
+
+/// Throughput of HOM on the demo city against the number of poses per submission.
+pub(super) fn batch(r: &mut Report) -> Result<()> {
+    let p = r.plan.clone();
+    let city = Loaded::new(demo_city());
+    let most = *p.batches.iter().max().unwrap_or(&1);
+    let all = city.cams(most.max(64), p.viewport)?;
+    let mut engine = r.engine(
+        city.scene.clone(),
+        OccluderParams::default().budget_triangles,
+    );
+    let settings = engine.settings(CullOptions {
+        method: Method::Hom,
+        ..Default::default()
+    });
+    engine.cull(&all[..1], &settings)?; // warm-up: pipelines and targets
+    let _ = writeln!(
+        r.md,
+        "\n### Batch size\n\n\
+         HOM (raster DEB) on the demo city at {}×{}; each batch size runs \
+         max(4 × batch, 64) poses (at most {}) in batches of that size; time per pose is \
+         total wall time ÷ poses.\n\n\
+         | batch | poses | ms/pose | poses/s |\n|---:|---:|---:|---:|",
+        p.viewport[0],
+        p.viewport[1],
+        all.len()
+    );
+    let mut pts = Vec::new();
+    for (i, &b) in p.batches.iter().enumerate() {
+        progress("batch", i, p.batches.len(), &format!("batch {b}"));
+        let n = (4 * b).max(64).min(all.len());
+        let t = Instant::now();
+        for chunk in all[..n].chunks(b) {
+            engine.cull(chunk, &settings)?;
+        }
+        let ms = t.elapsed().as_secs_f64() * 1e3 / n as f64;
+        let _ = writeln!(r.md, "| {b} | {n} | {ms:.2} | {:.0} |", 1e3 / ms);
+        pts.push((b as f64, ms));
+    }
+    let _ = writeln!(
+        r.md,
+        "\nLog-log slope of time per pose against batch size: {} (0 = batching buys \
+         nothing, −1 = a fixed cost per submission dominates).",
+        slope_text(&pts)
+    );
+    r.plot(
+        "batch.png",
+        &Chart {
+            title: "HOM time per pose vs batch size (demo city)",
+            x_label: "poses per batch",
+            y_label: "ms per pose",
+            log_x: true,
+            log_y: true,
+        },
+        &[Series {
+            label: "hom".into(),
+            points: pts,
+        }],
+    )
+}
+
+/// Time per pose and per object against object count (sized demo cities).
+pub(super) fn objects(r: &mut Report) -> Result<()> {
+    let p = r.plan.clone();
+    let methods = [
+        spec("hom-raster", 1.0),
+        MethodSpec::parse("frustum", 1.0, Default::default()).map_err(anyhow::Error::msg)?,
+    ];
+    let _ = writeln!(
+        r.md,
+        "\n## 5. Object count\n\n\
+         Synthetic cities from the demo generator (`scene::demo_city_sized`, N×N blocks), \
+         {} poses each at {}×{}, batch {}, budget {} triangles. Time per pose p50; \
+         ns/object = time per pose ÷ objects in the scene.\n\n\
+         | blocks | objects | triangles | hom ms | exact ms | frustum ms | hom ns/object | hom efficiency | false culls |\n\
+         |---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        p.city_poses,
+        p.viewport[0],
+        p.viewport[1],
+        p.batch.min(16),
+        OccluderParams::default().budget_triangles
+    );
+    let names = ["hom-raster", "exact", "frustum"];
+    let mut pts: Vec<Vec<(f64, f64)>> = vec![Vec::new(); names.len()];
+    for (i, &blocks) in p.city_blocks.iter().enumerate() {
+        progress(
+            "object count",
+            i,
+            p.city_blocks.len(),
+            &format!("{blocks}×{blocks} blocks"),
+        );
+        let city = Loaded::new(demo_city_sized(blocks));
+        let objects = city.scene.objects.len() as f64;
+        let cams = city.cams(p.city_poses, p.viewport)?;
+        let mut engine = r.engine(
+            city.scene.clone(),
+            OccluderParams::default().budget_triangles,
+        );
+        let e = evaluate(&mut engine, &cams, &methods, p.batch.min(16), None)?;
+        let ms: Vec<f64> = names
+            .iter()
+            .map(|n| e.methods[*n].ms_per_pose.p50)
+            .collect();
+        for (k, m) in ms.iter().enumerate() {
+            pts[k].push((objects, *m));
+        }
+        let hom = &e.methods["hom-raster"];
+        let _ = writeln!(
+            r.md,
+            "| {blocks}×{blocks} | {} | {} | {:.2} | {:.2} | {:.3} | {:.0} | {:.3} | {} |",
+            e.objects,
+            e.triangles,
+            ms[0],
+            ms[1],
+            ms[2],
+            ms[0] * 1e6 / objects,
+            hom.efficiency,
+            hom.false_culls
+        );
+    }
+    let slopes: Vec<String> = names
+        .iter()
+        .zip(&pts)
+        .map(|(n, p)| format!("{n} {}", slope_text(p)))
+        .collect();
+    let _ = writeln!(
+        r.md,
+        "\nLog-log slope of time per pose against object count: {}. Not measured: 1M \
+         objects (about 18M triangles; not run here).",
+        slopes.join(", ")
+    );
+    let series: Vec<Series> = names
+        .iter()
+        .zip(pts)
+        .map(|(n, points)| Series {
+            label: n.to_string(),
+            points,
+        })
+        .collect();
+    r.plot(
+        "objects.png",
+        &Chart {
+            title: "time per pose vs object count (sized demo cities)",
+            x_label: "objects",
+            y_label: "ms per pose (p50)",
+            log_x: true,
+            log_y: true,
+        },
+        &series,
+    )
+}

@@ -1,0 +1,148 @@
+//! Section 6: an in-process server on 127.0.0.1:0 driven by the load generator.
+
+use std::fmt::Write as _;
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+use super::plot::{Chart, Series};
+use super::{Report, progress};
+use crate::config::{LoadgenArgs, ServeArgs};
+use crate::loadgen::LoadReport;
+
+/// Polls `/readyz` until it answers 200 (the demo city is loaded).
+async fn wait_ready(addr: std::net::SocketAddr) -> Result<()> {
+    for _ in 0..1200 {
+        if let Ok(mut s) = tokio::net::TcpStream::connect(addr).await {
+            let req = "GET /readyz HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n";
+            if s.write_all(req.as_bytes()).await.is_ok() {
+                let mut buf = Vec::new();
+                let _ = s.read_to_end(&mut buf).await;
+                if buf.starts_with(b"HTTP/1.1 200") {
+                    return Ok(());
+                }
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    bail!("the in-process server did not become ready in 120 s")
+}
+
+/// Starts a server (batching on or off), runs the loadgen for each client count, stops it.
+async fn runs(
+    r: &Report,
+    batching: bool,
+    data_dir: &std::path::Path,
+    done: usize,
+    total: usize,
+) -> Result<Vec<LoadReport>> {
+    let cfg = ServeArgs {
+        addr: "127.0.0.1:0".parse()?,
+        data_dir: data_dir.to_path_buf(),
+        api_token: None,
+        ws_max_fps: 10_000.0,
+        rescan_s: 0,
+        no_batching: !batching,
+        ..ServeArgs::default()
+    };
+    let listener = tokio::net::TcpListener::bind(cfg.addr).await?;
+    let addr = listener.local_addr()?;
+    let (state, shutdown_tx) = crate::server::start(cfg, r.gpu.clone())
+        .with_context(|| format!("starting a server on {}", data_dir.display()))?;
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let task = tokio::spawn(crate::server::run(listener, state, shutdown_tx, async {
+        let _ = stopped.await;
+    }));
+    wait_ready(addr).await?;
+    let mut out = Vec::new();
+    for (i, &clients) in r.plan.clients.iter().enumerate() {
+        progress(
+            "server",
+            done + i,
+            total,
+            &format!(
+                "{clients} WS clients, batching {}",
+                if batching { "on" } else { "off" }
+            ),
+        );
+        let a = LoadgenArgs {
+            url: format!("http://{addr}"),
+            scene: "demo".into(),
+            clients,
+            seconds: r.plan.load_seconds,
+            mode: "ws".into(),
+            batch: 64,
+            json: false,
+        };
+        out.push(crate::loadgen::run(&a).await?);
+    }
+    let _ = stop.send(());
+    let _ = tokio::time::timeout(Duration::from_secs(30), task).await;
+    Ok(out)
+}
+
+pub(super) fn section(r: &mut Report) -> Result<()> {
+    let data_dir =
+        std::env::temp_dir().join(format!("homcull-report-server-{}", std::process::id()));
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()?;
+    let total = 2 * r.plan.clients.len();
+    let mut results = Vec::new();
+    for (k, batching) in [true, false].into_iter().enumerate() {
+        let dir = data_dir.join(if batching { "on" } else { "off" });
+        std::fs::create_dir_all(&dir)?;
+        let res = rt.block_on(runs(r, batching, &dir, k * r.plan.clients.len(), total));
+        let _ = std::fs::remove_dir_all(&dir);
+        results.push((batching, res?));
+    }
+    let _ = std::fs::remove_dir_all(&data_dir);
+    let _ = writeln!(
+        r.md,
+        "\n## 6. Server\n\n\
+         An in-process `homcull serve` on 127.0.0.1:0 (demo city, GPU batch 64, frame cap \
+         10,000 fps) driven by `homcull loadgen --mode ws` for {:.0} s per row: each client \
+         keeps one pose in flight (closed loop), 960×540 poses along a street walk. \
+         \"batching off\" runs every pose in its own submission (`--no-batching`). \
+         Round trip in ms.\n\n\
+         | batching | clients | poses/s | rtt p50 | rtt p95 | rtt p99 | errors | fewest poses per client |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|",
+        r.plan.load_seconds
+    );
+    let mut series = Vec::new();
+    for (batching, reps) in &results {
+        let on = if *batching { "on" } else { "off" };
+        for l in reps {
+            let _ = writeln!(
+                r.md,
+                "| {on} | {} | {:.0} | {:.2} | {:.2} | {:.2} | {} | {} |",
+                l.clients,
+                l.poses_per_s,
+                l.rtt_ms.p50,
+                l.rtt_ms.p95,
+                l.rtt_ms.p99,
+                l.errors,
+                l.min_client_poses
+            );
+        }
+        series.push(Series {
+            label: format!("batching {on}"),
+            points: reps
+                .iter()
+                .map(|l| (l.clients as f64, l.poses_per_s))
+                .collect(),
+        });
+    }
+    r.plot(
+        "server.png",
+        &Chart {
+            title: "server throughput vs WebSocket clients (demo city)",
+            x_label: "clients",
+            y_label: "poses per second",
+            log_x: true,
+            log_y: false,
+        },
+        &series,
+    )
+}

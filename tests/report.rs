@@ -1,0 +1,104 @@
+//! `homcull report --quick` end to end: the binary writes report.md and its plots, and
+//! the quality table shows zero false culls for hom and hzb on every scene.
+
+mod common;
+
+use std::process::Command;
+
+const PNG_SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n'];
+
+#[test]
+fn quick_report_writes_markdown_and_plots() {
+    // GPU rules of the other tests: skip without an adapter unless HOMCULL_REQUIRE_GPU=1.
+    if common::gpu().is_none() {
+        return;
+    }
+    let out = tempfile::tempdir().unwrap();
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_homcull"));
+    cmd.args(["report", "--quick", "--out"]).arg(out.path());
+    let scenes = common::scenes_dir();
+    if let Some(dir) = &scenes {
+        cmd.arg("--scenes-dir").arg(dir);
+    } else {
+        cmd.args(["--scenes-dir", "/nonexistent"]);
+    }
+    let t = std::time::Instant::now();
+    let res = cmd.output().expect("running homcull report");
+    let stderr = String::from_utf8_lossy(&res.stderr);
+    assert!(res.status.success(), "homcull report failed:\n{stderr}");
+    eprintln!("report --quick took {:.1} s", t.elapsed().as_secs_f64());
+    assert!(stderr.contains("[report] quality 1/"), "progress on stderr");
+
+    let md = std::fs::read_to_string(out.path().join("report.md")).unwrap();
+    assert!(md.contains("adapter: **"), "names the adapter");
+    assert!(md.contains("- CPU: "), "names the CPU");
+
+    // Quality table rows: | scene | objects | triangles | method | false culls | ...
+    let mut scenes_seen = std::collections::BTreeSet::new();
+    let mut checked = 0;
+    let quality = md
+        .split("## 1. Quality")
+        .nth(1)
+        .and_then(|s| s.split("\n## 2.").next())
+        .expect("a quality section");
+    for line in quality.lines().filter(|l| l.starts_with("| ")) {
+        let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).collect();
+        if cells.len() < 5 || cells[0] == "scene" {
+            continue;
+        }
+        let (scene, method, false_culls) = (cells[0], cells[3], cells[4]);
+        scenes_seen.insert(scene.to_string());
+        if method.starts_with("hom") || method == "hzb" {
+            assert_eq!(
+                false_culls, "0",
+                "false culls of {method} on {scene}: {line}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(scenes_seen.contains("demo"), "the demo city is reported");
+    if let Some(dir) = &scenes {
+        let glbs = std::fs::read_dir(dir)
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .path()
+                    .extension()
+                    .is_some_and(|x| x == "glb")
+            })
+            .count();
+        assert_eq!(scenes_seen.len(), glbs + 1, "every scene: {scenes_seen:?}");
+    }
+    assert_eq!(
+        checked,
+        4 * scenes_seen.len(),
+        "hom ×3 DEBs + hzb per scene"
+    );
+
+    // Every plot the report links exists and is a PNG.
+    let pngs: Vec<&str> = md
+        .split("](")
+        .skip(1)
+        .filter_map(|s| s.split(')').next())
+        .filter(|s| s.ends_with(".png"))
+        .collect();
+    for name in [
+        "threshold.png",
+        "budget_efficiency.png",
+        "budget_time.png",
+        "viewport.png",
+        "batch.png",
+        "objects.png",
+        "server.png",
+    ] {
+        assert!(pngs.contains(&name), "report.md links {name}: {pngs:?}");
+    }
+    for name in pngs {
+        let bytes = std::fs::read(out.path().join(name)).unwrap();
+        assert!(
+            bytes.starts_with(&PNG_SIGNATURE),
+            "{name} starts with the PNG signature"
+        );
+    }
+}
