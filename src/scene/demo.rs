@@ -52,18 +52,31 @@ const SIDEWALK_BENCH_CHANCE: f64 = 0.08;
 
 /// The demo city, named "demo". A few thousand objects, under 150k triangles.
 pub fn demo_city() -> Scene {
+    build_city(BLOCKS_PER_SIDE, "demo".into())
+}
+
+/// A demo city with `blocks_per_side` × `blocks_per_side` blocks (at least 1), named
+/// `demo_N`, for object-count scaling: about 29 objects per block. It draws from the
+/// same seed and generator as [`demo_city`]; `demo_city_sized(12)` builds the same
+/// objects as `demo_city()`.
+pub fn demo_city_sized(blocks_per_side: usize) -> Scene {
+    let n = blocks_per_side.max(1);
+    build_city(n, format!("demo_{n}"))
+}
+
+fn build_city(n: usize, name: String) -> Scene {
     let mut rng = ChaCha8Rng::seed_from_u64(SEED);
-    let (xs, zs) = city_layout(&mut rng);
+    let (xs, zs) = city_layout(&mut rng, n);
     let mut city = City::default();
     add_ground(&mut city, &xs, &zs);
-    for bz in 0..BLOCKS_PER_SIDE {
-        for bx in 0..BLOCKS_PER_SIDE {
+    for bz in 0..n {
+        for bx in 0..n {
             let block = Rect::from_spans(xs.blocks[bx], zs.blocks[bz]);
             add_block(&mut city, &mut rng, (bx, bz), block);
         }
     }
     add_street_cars(&mut city, &mut rng, &xs, &zs);
-    city.builder.build("demo")
+    city.builder.build(name)
 }
 
 /// A closed interval along one axis.
@@ -86,32 +99,32 @@ impl Span {
 /// Streets and blocks along one axis, alternating street, block, …, street.
 #[derive(Debug, Clone, PartialEq)]
 struct AxisLayout {
-    /// `BLOCKS_PER_SIDE + 1` streets, the outermost ones bordering the city.
+    /// `n + 1` streets for `n` blocks, the outermost ones bordering the city.
     streets: Vec<Span>,
     blocks: Vec<Span>,
 }
 
 /// Draws the x and z layouts (in that order) from the first random numbers of `rng`.
-fn city_layout(rng: &mut ChaCha8Rng) -> (AxisLayout, AxisLayout) {
-    let xs = axis_layout(rng);
-    let zs = axis_layout(rng);
+fn city_layout(rng: &mut ChaCha8Rng, n: usize) -> (AxisLayout, AxisLayout) {
+    let xs = axis_layout(rng, n);
+    let zs = axis_layout(rng, n);
     (xs, zs)
 }
 
 /// One axis of the grid, shifted so the middle street is centred on 0: the origin is
 /// then the middle of an open crossing.
-fn axis_layout(rng: &mut ChaCha8Rng) -> AxisLayout {
-    let mut streets = Vec::with_capacity(BLOCKS_PER_SIDE + 1);
-    let mut blocks = Vec::with_capacity(BLOCKS_PER_SIDE);
+fn axis_layout(rng: &mut ChaCha8Rng, n: usize) -> AxisLayout {
+    let mut streets = Vec::with_capacity(n + 1);
+    let mut blocks = Vec::with_capacity(n);
     let mut at = 0.0;
-    for i in 0..=BLOCKS_PER_SIDE {
+    for i in 0..=n {
         let width = between(rng, STREET_WIDTH);
         streets.push(Span {
             lo: at,
             hi: at + width,
         });
         at += width;
-        if i < BLOCKS_PER_SIDE {
+        if i < n {
             let size = between(rng, BLOCK_SIZE);
             blocks.push(Span {
                 lo: at,
@@ -120,7 +133,7 @@ fn axis_layout(rng: &mut ChaCha8Rng) -> AxisLayout {
             at += size;
         }
     }
-    let shift = streets[BLOCKS_PER_SIDE / 2].mid();
+    let shift = streets[n / 2].mid();
     let shifted = |s: &Span| Span {
         lo: s.lo - shift,
         hi: s.hi - shift,
@@ -663,7 +676,7 @@ mod tests {
     use glam::Vec3Swizzles;
 
     fn layout() -> (AxisLayout, AxisLayout) {
-        city_layout(&mut ChaCha8Rng::seed_from_u64(SEED))
+        city_layout(&mut ChaCha8Rng::seed_from_u64(SEED), BLOCKS_PER_SIDE)
     }
 
     fn normal(v: &[Vec3], tri: &[u32]) -> Vec3 {
@@ -809,59 +822,6 @@ mod tests {
         for tri in ground.indices.chunks_exact(3) {
             assert!(normal(&ground.vertices, tri).y > 0.0);
         }
-    }
-}
-
-/// A demo city with `blocks_per_side` × `blocks_per_side` blocks (at least 1), named
-/// `demo_N`, for object-count scaling: about 29 objects per block. It draws from the
-/// same seed and generator as [`demo_city`], whose output (and object IDs) it leaves
-/// untouched; `demo_city_sized(12)` builds the same objects as `demo_city()`.
-pub fn demo_city_sized(blocks_per_side: usize) -> Scene {
-    let n = blocks_per_side.max(1);
-    let mut rng = ChaCha8Rng::seed_from_u64(SEED);
-    let xs = axis_layout_sized(&mut rng, n);
-    let zs = axis_layout_sized(&mut rng, n);
-    let mut city = City::default();
-    add_ground(&mut city, &xs, &zs);
-    for bz in 0..n {
-        for bx in 0..n {
-            let block = Rect::from_spans(xs.blocks[bx], zs.blocks[bz]);
-            add_block(&mut city, &mut rng, (bx, bz), block);
-        }
-    }
-    add_street_cars(&mut city, &mut rng, &xs, &zs);
-    city.builder.build(format!("demo_{n}"))
-}
-
-/// [`axis_layout`] with `n` blocks instead of `BLOCKS_PER_SIDE`.
-fn axis_layout_sized(rng: &mut ChaCha8Rng, n: usize) -> AxisLayout {
-    let mut streets = Vec::with_capacity(n + 1);
-    let mut blocks = Vec::with_capacity(n);
-    let mut at = 0.0;
-    for i in 0..=n {
-        let width = between(rng, STREET_WIDTH);
-        streets.push(Span {
-            lo: at,
-            hi: at + width,
-        });
-        at += width;
-        if i < n {
-            let size = between(rng, BLOCK_SIZE);
-            blocks.push(Span {
-                lo: at,
-                hi: at + size,
-            });
-            at += size;
-        }
-    }
-    let shift = streets[n / 2].mid();
-    let shifted = |s: &Span| Span {
-        lo: s.lo - shift,
-        hi: s.hi - shift,
-    };
-    AxisLayout {
-        streets: streets.iter().map(shifted).collect(),
-        blocks: blocks.iter().map(shifted).collect(),
     }
 }
 
