@@ -230,4 +230,19 @@ pub struct ReportArgs {
     /// The scenes to report on: every .glb in it, plus the demo city.
     #[arg(long, default_value = "../shared/scenes")]
     pub scenes_dir: PathBuf,
+    /// Which sections to run (comma-separated): quality (with the threshold curve),
+    /// budget, viewport, batch, objects, server. Default: all.
+    #[arg(long, value_delimiter = ',', value_enum)]
+    pub sections: Vec<ReportSection>,
+}
+
+/// A section of `homcull report`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ReportSection {
+    Quality,
+    Budget,
+    Viewport,
+    Batch,
+    Objects,
+    Server,
 }

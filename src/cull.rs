@@ -238,6 +238,10 @@ fn set_bit(mask: &mut [u32], id: u32) {
     mask[id as usize / 32] |= 1 << (id % 32);
 }
 
+fn has_bit(mask: &[u32], id: u32) -> bool {
+    mask[id as usize / 32] & (1 << (id % 32)) != 0
+}
+
 /// The CPU reference of every pass: the test oracle for the GPU and the fallback
 /// when no adapter exists.
 #[derive(Default)]
@@ -285,6 +289,9 @@ impl CpuBackend {
         let thr = level_thresholds(s.options.threshold, layout.levels());
         for &b in &p.test_boxes {
             let tb = &scene.boxes[b as usize];
+            if has_bit(&mask, tb.object) {
+                continue; // another sub-bound of this object is already visible
+            }
             let Some(r) = p.cam.project_box(&tb.aabb) else {
                 continue;
             };

@@ -76,6 +76,19 @@ fn quick_report_writes_markdown_and_plots() {
         "hom ×3 DEBs + hzb per scene"
     );
 
+    // The server section measures WebSocket clients with batching on and off, and REST
+    // one pose per request against batches.
+    let server = md.split("## 6. Server").nth(1).expect("a server section");
+    for row in [
+        "| on | ws |",
+        "| off | ws |",
+        "| on | single |",
+        "| on | batch |",
+    ] {
+        assert!(server.contains(row), "server section has a `{row}` row");
+    }
+    assert!(server.contains("batches of 64 ÷ one pose per request: "));
+
     // Every plot the report links exists and is a PNG.
     let pngs: Vec<&str> = md
         .split("](")

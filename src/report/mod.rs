@@ -27,7 +27,7 @@ use anyhow::{Context, Result};
 use homcull_proto::{CullOptions, DebVariant, Method};
 
 use crate::camera::Camera;
-use crate::config::ReportArgs;
+use crate::config::{ReportArgs, ReportSection};
 use crate::engine::Engine;
 use crate::eval::{EvalReport, MethodReport, MethodSpec, evaluate};
 use crate::gpu::GpuContext;
@@ -43,6 +43,9 @@ pub const SEED: u64 = 7;
 pub const THRESHOLDS: [f32; 5] = [1.0, 0.99, 0.95, 0.9, 0.8];
 /// The methods of the quality table, as reported (`exact` is added by `evaluate`).
 pub const QUALITY_METHODS: [&str; 5] = ["hom-raster", "hom-tiles", "hom-plane", "hzb", "frustum"];
+
+/// A section that needs no shared scenes.
+type SectionFn = fn(&mut Report) -> Result<()>;
 
 /// Sizes of one run: full or `--quick`.
 #[derive(Debug, Clone)]
@@ -89,9 +92,9 @@ impl Plan {
                 viewports: vec![[640, 360], [960, 540], [1920, 1080], [3840, 2160]],
                 viewport_poses: 32,
                 batches: vec![1, 4, 16, 64, 256, 1024],
-                city_blocks: vec![6, 19, 59],
+                city_blocks: vec![6, 19, 59, 186],
                 city_poses: 32,
-                clients: vec![1, 10, 50],
+                clients: vec![1, 10, 50, 100, 250, 500],
                 load_seconds: 4.0,
             }
         }
@@ -222,6 +225,15 @@ pub fn main(a: ReportArgs) -> Result<()> {
         md: String::new(),
         started: Instant::now(),
     };
+    let mut flags = String::from(if a.quick { " --quick" } else { "" });
+    if !a.sections.is_empty() {
+        let names: Vec<String> = a
+            .sections
+            .iter()
+            .map(|s| format!("{s:?}").to_lowercase())
+            .collect();
+        flags += &format!(" --sections {}", names.join(","));
+    }
     let _ = writeln!(
         r.md,
         "# homcull report{}\n\n\
@@ -233,25 +245,36 @@ pub fn main(a: ReportArgs) -> Result<()> {
         } else {
             "a real GPU"
         },
-        if a.quick { " --quick" } else { "" },
+        flags,
         a.out.display()
     );
-    let scenes = load_scenes(&a.scenes_dir)?;
-    r.save()?;
-    let evals = quality(&mut r, &scenes)?;
-    r.save()?;
-    thresholds(&mut r, &evals)?;
-    r.save()?;
-    budget(&mut r, &scenes)?;
-    r.save()?;
-    drop(scenes);
-    scaling::viewport(&mut r)?;
-    r.save()?;
-    scaling::batch(&mut r)?;
-    r.save()?;
-    scaling::objects(&mut r)?;
-    r.save()?;
-    server::section(&mut r)?;
+    let run = |s: ReportSection| a.sections.is_empty() || a.sections.contains(&s);
+    if run(ReportSection::Quality) || run(ReportSection::Budget) {
+        let scenes = load_scenes(&a.scenes_dir)?;
+        r.save()?;
+        if run(ReportSection::Quality) {
+            let evals = quality(&mut r, &scenes)?;
+            r.save()?;
+            thresholds(&mut r, &evals)?;
+            r.save()?;
+        }
+        if run(ReportSection::Budget) {
+            budget(&mut r, &scenes)?;
+            r.save()?;
+        }
+    }
+    let scaling: [(ReportSection, SectionFn); 4] = [
+        (ReportSection::Viewport, scaling::viewport),
+        (ReportSection::Batch, scaling::batch),
+        (ReportSection::Objects, scaling::objects),
+        (ReportSection::Server, server::section),
+    ];
+    for (section, f) in scaling {
+        if run(section) {
+            f(&mut r)?;
+            r.save()?;
+        }
+    }
     let secs = r.started.elapsed().as_secs_f64();
     let _ = writeln!(r.md, "\n---\nReport generated in {secs:.0} s.");
     r.save()?;

@@ -29,10 +29,12 @@ async fn wait_ready(addr: std::net::SocketAddr) -> Result<()> {
     bail!("the in-process server did not become ready in 120 s")
 }
 
-/// Starts a server (batching on or off), runs the loadgen for each client count, stops it.
+/// Starts a server (batching on or off), runs the loadgen for each `(mode, clients)`
+/// job, stops it.
 async fn runs(
     r: &Report,
     batching: bool,
+    jobs: &[(&str, usize)],
     data_dir: &std::path::Path,
     done: usize,
     total: usize,
@@ -56,13 +58,13 @@ async fn runs(
     }));
     wait_ready(addr).await?;
     let mut out = Vec::new();
-    for (i, &clients) in r.plan.clients.iter().enumerate() {
+    for (i, &(mode, clients)) in jobs.iter().enumerate() {
         progress(
             "server",
             done + i,
             total,
             &format!(
-                "{clients} WS clients, batching {}",
+                "{mode}: {clients} clients, batching {}",
                 if batching { "on" } else { "off" }
             ),
         );
@@ -71,7 +73,7 @@ async fn runs(
             scene: "demo".into(),
             clients,
             seconds: r.plan.load_seconds,
-            mode: "ws".into(),
+            mode: mode.into(),
             batch: 64,
             json: false,
         };
@@ -82,32 +84,50 @@ async fn runs(
     Ok(out)
 }
 
+/// Load generator jobs of one server run: WebSocket at every client count, and with
+/// batching on also REST, one pose per request against batches of 64.
+fn jobs(clients: &[usize], batching: bool) -> Vec<(&'static str, usize)> {
+    let mut j: Vec<(&str, usize)> = clients.iter().map(|&c| ("ws", c)).collect();
+    if batching {
+        let rest = [1, *clients.iter().filter(|&&c| c <= 10).max().unwrap_or(&1)];
+        for c in rest.into_iter().collect::<std::collections::BTreeSet<_>>() {
+            j.extend([("single", c), ("batch", c)]);
+        }
+    }
+    j
+}
+
 pub(super) fn section(r: &mut Report) -> Result<()> {
     let data_dir =
         std::env::temp_dir().join(format!("homcull-report-server-{}", std::process::id()));
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()?;
-    let total = 2 * r.plan.clients.len();
+    let plans = [true, false].map(|b| (b, jobs(&r.plan.clients, b)));
+    let total = plans.iter().map(|(_, j)| j.len()).sum();
+    let mut done = 0;
     let mut results = Vec::new();
-    for (k, batching) in [true, false].into_iter().enumerate() {
-        let dir = data_dir.join(if batching { "on" } else { "off" });
+    for (batching, jobs) in &plans {
+        let dir = data_dir.join(if *batching { "on" } else { "off" });
         std::fs::create_dir_all(&dir)?;
-        let res = rt.block_on(runs(r, batching, &dir, k * r.plan.clients.len(), total));
+        let res = rt.block_on(runs(r, *batching, jobs, &dir, done, total));
         let _ = std::fs::remove_dir_all(&dir);
-        results.push((batching, res?));
+        done += jobs.len();
+        results.push((*batching, res?));
     }
     let _ = std::fs::remove_dir_all(&data_dir);
     let _ = writeln!(
         r.md,
         "\n## 6. Server\n\n\
          An in-process `homcull serve` on 127.0.0.1:0 (demo city, GPU batch 64, frame cap \
-         10,000 fps) driven by `homcull loadgen --mode ws` for {:.0} s per row: each client \
-         keeps one pose in flight (closed loop), 960×540 poses along a street walk. \
-         \"batching off\" runs every pose in its own submission (`--no-batching`). \
-         Round trip in ms.\n\n\
-         | batching | clients | poses/s | rtt p50 | rtt p95 | rtt p99 | errors | fewest poses per client |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|",
+         10,000 fps) driven by `homcull loadgen` for {:.0} s per row, 960×540 poses along \
+         a street walk. `ws`: each WebSocket client keeps one pose in flight (closed loop); \
+         `single`: one pose per `POST /cull`; `batch`: 64 poses per `POST /cull/batch` \
+         (poses/s counts poses, the round trip is per request). \"batching off\" runs \
+         every pose in its own GPU submission (`--no-batching`). Times in ms; /healthz is \
+         probed while the load runs.\n\n\
+         | batching | mode | clients | poses/s | rtt p50 | rtt p95 | rtt p99 | /healthz p99 | errors | fewest poses per client |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
         r.plan.load_seconds
     );
     let mut series = Vec::new();
@@ -116,24 +136,53 @@ pub(super) fn section(r: &mut Report) -> Result<()> {
         for l in reps {
             let _ = writeln!(
                 r.md,
-                "| {on} | {} | {:.0} | {:.2} | {:.2} | {:.2} | {} | {} |",
+                "| {on} | {} | {} | {:.0} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} |",
+                l.mode,
                 l.clients,
                 l.poses_per_s,
                 l.rtt_ms.p50,
                 l.rtt_ms.p95,
                 l.rtt_ms.p99,
+                l.healthz_ms.p99,
                 l.errors,
                 l.min_client_poses
             );
         }
         series.push(Series {
-            label: format!("batching {on}"),
+            label: format!("WebSocket, batching {on}"),
             points: reps
                 .iter()
+                .filter(|l| l.mode == "ws")
                 .map(|l| (l.clients as f64, l.poses_per_s))
                 .collect(),
         });
     }
+    let ws = |b: bool, c: usize| {
+        results
+            .iter()
+            .find(|(on, _)| *on == b)
+            .and_then(|(_, reps)| reps.iter().find(|l| l.mode == "ws" && l.clients == c))
+            .map(|l| l.poses_per_s)
+    };
+    let rest = |mode: &str| {
+        results[0]
+            .1
+            .iter()
+            .find(|l| l.mode == mode && l.clients == 1)
+            .map(|l| l.poses_per_s)
+    };
+    let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (Some(a), Some(b)) if b > 0.0 => format!("{:.2}×", a / b),
+        _ => "–".into(),
+    };
+    let most = *r.plan.clients.iter().max().unwrap_or(&1);
+    let _ = writeln!(
+        r.md,
+        "\nBatching on ÷ off, WebSocket poses/s at {most} clients: {}. REST, one client: \
+         batches of 64 ÷ one pose per request: {}.",
+        ratio(ws(true, most), ws(false, most)),
+        ratio(rest("batch"), rest("single"))
+    );
     r.plot(
         "server.png",
         &Chart {

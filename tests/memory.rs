@@ -1,0 +1,152 @@
+//! Resident memory of uploaded scenes (issue 4's target: at most 4× the GLB's size per
+//! scene on top of a fixed overhead). The server runs as its own process, so that its
+//! resident set (`VmRSS`) is its own, not this test harness's.
+//!
+//! The fixed overhead is what the process holds with no scene (runtime, wgpu, Vulkan
+//! driver) plus the pipelines compiled on the first scene; the test loads a small scene
+//! first to pay it, then uploads the larger shared scenes one by one.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Allowed growth per scene, as a multiple of its GLB.
+const MAX_GLB_MULTIPLE: f64 = 4.0;
+
+struct Server {
+    child: Child,
+    addr: String,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn start(data_dir: &std::path::Path) -> Server {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_homcull"))
+        .args([
+            "serve",
+            "--no-demo",
+            "--addr",
+            "127.0.0.1:0",
+            "--rescan-s",
+            "0",
+        ])
+        .arg("--data-dir")
+        .arg(data_dir)
+        .env("RUST_LOG", "info")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starting homcull serve");
+    let stderr = child.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut sent = false;
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if !sent {
+                if let Some(rest) = line.split("listening on http://").nth(1) {
+                    let addr = rest.split('/').next().unwrap_or_default().to_string();
+                    let _ = tx.send(addr);
+                    sent = true;
+                }
+            }
+        }
+    });
+    let addr = rx
+        .recv_timeout(Duration::from_secs(60))
+        .expect("the server prints its address");
+    Server { child, addr }
+}
+
+fn rss_bytes(pid: u32) -> u64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    let kb: u64 = status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .expect("VmRSS in /proc/PID/status");
+    kb * 1024
+}
+
+async fn upload(http: &reqwest::Client, s: &Server, path: &std::path::Path) -> u64 {
+    let glb = std::fs::read(path).unwrap();
+    let name = path.file_stem().unwrap().to_string_lossy();
+    let r = http
+        .post(format!("http://{}/v1/scenes?name={name}", s.addr))
+        .body(glb.clone())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(
+        r.status(),
+        201,
+        "upload {name}: {}",
+        r.text().await.unwrap()
+    );
+    glb.len() as u64
+}
+
+/// RSS after the allocator and driver have settled (the lowest of a few reads).
+async fn settled_rss(pid: u32) -> u64 {
+    let mut least = u64::MAX;
+    for _ in 0..5 {
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        least = least.min(rss_bytes(pid));
+    }
+    least
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_resident_scene_costs_at_most_four_times_its_glb() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let Some(scenes) = common::scenes_dir() else {
+        return;
+    };
+    let data = tempfile::tempdir().unwrap();
+    let server = start(data.path());
+    let http = reqwest::Client::new();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while http
+        .get(format!("http://{}/readyz", server.addr))
+        .send()
+        .await
+        .map_or(true, |r| r.status() != 200)
+    {
+        assert!(Instant::now() < deadline, "server not ready in 60 s");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    let pid = server.child.id();
+    let empty = settled_rss(pid).await;
+    upload(&http, &server, &scenes.join("godot_room.glb")).await;
+    let mut before = settled_rss(pid).await;
+    eprintln!(
+        "fixed overhead: {:.1} MiB with no scene, {:.1} MiB after the first (pipelines)",
+        empty as f64 / 1048576.0,
+        before as f64 / 1048576.0
+    );
+    for name in ["munich", "oa_shouse", "etoile", "oa_dm1", "fzk_haus"] {
+        let glb = upload(&http, &server, &scenes.join(format!("{name}.glb"))).await;
+        let after = settled_rss(pid).await;
+        let grew = after.saturating_sub(before);
+        eprintln!(
+            "{name}: GLB {:.2} MiB, RSS +{:.2} MiB = {:.1}× the GLB",
+            glb as f64 / 1048576.0,
+            grew as f64 / 1048576.0,
+            grew as f64 / glb as f64
+        );
+        assert!(
+            grew as f64 <= MAX_GLB_MULTIPLE * glb as f64,
+            "{name}: resident memory grew {grew} bytes for a {glb}-byte GLB"
+        );
+        before = after;
+    }
+}
