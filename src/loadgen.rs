@@ -132,16 +132,24 @@ pub fn walk(n: usize, viewport: [u32; 2], bounds: [[f32; 3]; 2]) -> Vec<Pose> {
     (0..n)
         .map(|i| {
             let x = x0 + (x1 - x0) * i as f32 / n as f32;
-            let yaw = -std::f32::consts::FRAC_PI_2 + 0.6 * (i as f32 * 0.05).sin();
-            let (s, c) = (yaw / 2.0).sin_cos();
-            Pose {
-                rotation: Some([0.0, s, 0.0, c]),
-                look_at: None,
-                viewport,
-                ..Pose::looking_at([x, lo[1] + 1.7, z], [0.0; 3])
-            }
+            street_pose([x, lo[1] + 1.7, z], i as f32, viewport)
         })
         .collect()
+}
+
+/// A walker's pose at `eye` looking along the street (yaw −90° about +Y, the direction
+/// of the walk) with a slow sway of `0.6 · sin(0.05 · phase)` radians; the walks of the
+/// load generator and of the tests all use it, with the pose index or the metres walked
+/// as the phase.
+pub fn street_pose(eye: [f32; 3], phase: f32, viewport: [u32; 2]) -> Pose {
+    let yaw = -std::f32::consts::FRAC_PI_2 + 0.6 * (phase * 0.05).sin();
+    let (s, c) = (yaw / 2.0).sin_cos();
+    Pose {
+        rotation: Some([0.0, s, 0.0, c]),
+        look_at: None,
+        viewport,
+        ..Pose::looking_at(eye, [0.0; 3])
+    }
 }
 
 /// Minimal HTTP/1.1 over one keep-alive connection (no client library in the binary).

@@ -6,102 +6,12 @@ mod common;
 use std::time::Duration;
 
 use common::server::{TestServer, street_walk};
+use common::ws::{Tracker, Ws, connect, next_frame, pose_frame, rest_cull};
 use futures_util::{SinkExt, StreamExt};
-use homcull_proto::frame::{ErrorCode, Frame, PoseFrame, VisibleFull, apply_delta};
-use homcull_proto::{CullResponse, Pose};
+use homcull_proto::Pose;
+use homcull_proto::frame::{ErrorCode, Frame, PoseFrame, VisibleFull};
 use serde_json::json;
 use tokio_tungstenite::tungstenite::Message;
-
-type Ws =
-    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
-
-async fn connect(srv: &TestServer, query: &str) -> Ws {
-    let (mut ws, _) =
-        tokio_tungstenite::connect_async(srv.ws_url(&format!("/v1/scenes/demo/stream{query}")))
-            .await
-            .expect("upgrade");
-    match next_frame(&mut ws).await {
-        Frame::Hello(h) => {
-            let info: serde_json::Value = serde_json::from_str(&h.info_json).unwrap();
-            assert_eq!(info["protocol_version"], homcull_proto::PROTOCOL_VERSION);
-            assert_eq!(info["scene"]["id"], "demo");
-            assert_eq!(
-                h.object_count,
-                info["scene"]["objects"].as_u64().unwrap() as u32
-            );
-        }
-        f => panic!("expected hello, got {f:?}"),
-    }
-    ws
-}
-
-async fn next_frame(ws: &mut Ws) -> Frame {
-    loop {
-        let msg = tokio::time::timeout(Duration::from_secs(60), ws.next())
-            .await
-            .expect("a frame within 60 s")
-            .expect("stream open")
-            .expect("no socket error");
-        match msg {
-            Message::Binary(b) => return Frame::decode(&b).expect("server frames decode"),
-            Message::Ping(_) | Message::Pong(_) => continue,
-            m => panic!("unexpected message {m:?}"),
-        }
-    }
-}
-
-fn pose_frame(seq: u32, pose: &Pose, want_full: bool) -> Message {
-    Message::Binary(
-        Frame::Pose(PoseFrame::from_pose(seq, want_full, pose).unwrap())
-            .encode()
-            .into(),
-    )
-}
-
-/// Client-side state: the visible set kept up to date by full and delta frames.
-#[derive(Default)]
-struct Tracker {
-    set: Vec<u32>,
-    full_bytes: usize,
-    delta_bytes: usize,
-    frames: usize,
-    dropped: u32,
-}
-
-impl Tracker {
-    /// Applies one visibility frame; returns the pose seq it answers.
-    fn apply(&mut self, f: &Frame) -> u32 {
-        self.frames += 1;
-        match f {
-            Frame::Full(v) => {
-                self.full_bytes += f.encoded_len();
-                self.dropped += v.stats.dropped_poses;
-                self.set = v.ids.clone();
-                v.ack
-            }
-            Frame::Delta(d) => {
-                self.delta_bytes += f.encoded_len();
-                self.dropped += d.stats.dropped_poses;
-                apply_delta(&mut self.set, d).expect("deltas apply to the last set");
-                d.ack
-            }
-            f => panic!("expected a visibility frame, got {f:?}"),
-        }
-    }
-}
-
-async fn rest_cull(http: &reqwest::Client, srv: &TestServer, pose: &Pose) -> Vec<u32> {
-    let r: CullResponse = http
-        .post(srv.url("/v1/scenes/demo/cull"))
-        .json(&json!({ "pose": pose }))
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
-    r.visible
-}
 
 /// Largest delta/full byte ratio accepted on the 1 m-per-pose walk (measured 0.139 on
 /// lavapipe; protocol version 1 gave 0.187 for the same answers).
@@ -123,14 +33,7 @@ fn walk_along_street(x0: f32, step: f32, n: usize, viewport: [u32; 2]) -> Vec<Po
     (0..n)
         .map(|i| {
             let x = x0 + step * i as f32;
-            let yaw = -std::f32::consts::FRAC_PI_2 + 0.6 * ((x + 150.0) * 0.05).sin();
-            let (s, c) = (yaw / 2.0).sin_cos();
-            Pose {
-                rotation: Some([0.0, s, 0.0, c]),
-                look_at: None,
-                viewport,
-                ..Pose::looking_at([x, 1.7, 0.0], [0.0; 3])
-            }
+            homcull::loadgen::street_pose([x, 1.7, 0.0], x + 150.0, viewport)
         })
         .collect()
 }

@@ -15,6 +15,7 @@
 pub mod error;
 pub mod healthcheck;
 pub mod metrics;
+pub mod motion;
 pub mod routes;
 pub mod state;
 pub mod static_files;

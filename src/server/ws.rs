@@ -11,6 +11,10 @@
 //!   `full_every` frames, when the client asks, and when the change is too big for a
 //!   delta frame (more than 65535 IDs added or removed, see `VisibleDelta::fits`).
 //!
+//! Options in the query string: `method`, `threshold`, `deb` as for `POST /cull`, and the
+//! opt-in smoothing `lookahead_ms` and `hold_ms` ([`super::motion`]), which stream a
+//! superset of the pose's cull.
+//!
 //! A client that stops reading blocks only its own sender; after the send timeout it
 //! is dropped. Malformed frames get an error frame; a flood of them closes the socket.
 
@@ -22,17 +26,20 @@ use axum::extract::ws::{CloseFrame, Message, Utf8Bytes, WebSocket, WebSocketUpgr
 use axum::extract::{Path, Query, State};
 use axum::response::Response;
 use futures_util::{SinkExt, StreamExt};
+use glam::Vec3;
 use homcull_proto::frame::{
     ErrorCode, ErrorFrame, Frame, FrameStats, Hello, VisibleDelta, VisibleFull, diff,
 };
-use homcull_proto::{CullOptions, DebVariant, Method, PROTOCOL_VERSION, PoseMessage};
+use homcull_proto::{CullOptions, DebVariant, Method, PROTOCOL_VERSION, Pose, PoseMessage};
 use serde::Deserialize;
 use tokio::sync::{Mutex, Notify, mpsc};
 
 use super::error::ApiError;
+use super::motion::{HeldSet, MAX_HOLD_MS, MAX_LOOKAHEAD_MS, MotionEstimator, moved, union};
 use super::state::{AppState, SceneEntry, WsClientSlot};
 use crate::camera::Camera;
 use crate::cull::PoseResult;
+use crate::geom::Aabb;
 
 /// Largest message a client may send (a pose frame is 68 bytes).
 const MAX_CLIENT_MESSAGE: usize = 64 << 10;
@@ -48,6 +55,21 @@ pub struct StreamQuery {
     pub threshold: Option<f32>,
     /// plane, tiles or raster (default).
     pub deb: Option<DebVariant>,
+    /// Also cull the pose extrapolated this far ahead along the client's recent motion
+    /// and stream the union (0 = off, the default; at most 1000). Covers what walking
+    /// reveals during a round trip.
+    pub lookahead_ms: Option<u32>,
+    /// Keep each object in the streamed set this long after a cull last returned it
+    /// (0 = off, the default; at most 10000). Stops flicker of tiny distant objects.
+    pub hold_ms: Option<u32>,
+}
+
+/// How a stream shapes its sets (see [`super::motion`]); both off by default, when the
+/// streamed set equals `POST /cull`'s for the same pose.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+struct Smoothing {
+    lookahead_ms: u32,
+    hold_ms: u32,
 }
 
 /// Opens a visibility stream (WebSocket upgrade). See the README for the frame layout.
@@ -74,6 +96,20 @@ pub async fn stream(
             format!("threshold must be in (0, 1], got {}", options.threshold),
         ));
     }
+    let smoothing = Smoothing {
+        lookahead_ms: q.lookahead_ms.unwrap_or(0),
+        hold_ms: q.hold_ms.unwrap_or(0),
+    };
+    if smoothing.lookahead_ms > MAX_LOOKAHEAD_MS || smoothing.hold_ms > MAX_HOLD_MS {
+        return Err(ApiError::bad_request(
+            "invalid_options",
+            format!(
+                "lookahead_ms must be at most {MAX_LOOKAHEAD_MS} and hold_ms at most \
+                 {MAX_HOLD_MS}, got {} and {}",
+                smoothing.lookahead_ms, smoothing.hold_ms
+            ),
+        ));
+    }
     let scene = state.scene(&id)?;
     let slot = state.try_ws_slot().ok_or_else(|| {
         ApiError::overloaded(format!(
@@ -84,14 +120,17 @@ pub async fn stream(
     Ok(ws
         .max_message_size(MAX_CLIENT_MESSAGE)
         .max_frame_size(MAX_CLIENT_MESSAGE)
-        .on_upgrade(move |socket| client(socket, state, scene, options, slot)))
+        .on_upgrade(move |socket| client(socket, state, scene, options, smoothing, slot)))
 }
 
 /// A pose waiting to be culled.
 struct Pending {
     seq: u32,
+    pose: Pose,
     cam: Camera,
     want_full: bool,
+    /// Eye velocity when it arrived (m/s), for the lookahead.
+    velocity: Vec3,
 }
 
 /// The one-slot mailbox between a client's reader and sender.
@@ -131,6 +170,7 @@ async fn client(
     state: AppState,
     scene: Arc<SceneEntry>,
     options: CullOptions,
+    smoothing: Smoothing,
     _slot: WsClientSlot,
 ) {
     let (sink, mut incoming) = socket.split();
@@ -146,6 +186,7 @@ async fn client(
             "adapter": state.adapter,
             "cpu_fallback": state.gpu.is_none(),
             "options": options,
+            "smoothing": smoothing,
             "full_every": state.config.full_every,
             "max_fps": state.config.ws_max_fps,
         })
@@ -161,6 +202,7 @@ async fn client(
         let mailbox = mailbox.clone();
         tokio::spawn(async move {
             let mut bad = 0u32;
+            let mut motion = MotionEstimator::default();
             while let Some(msg) = incoming.next().await {
                 let parsed = match msg {
                     Ok(Message::Binary(b)) => parse_binary(&b),
@@ -169,8 +211,10 @@ async fn client(
                     Ok(_) => continue, // ping/pong are answered by the library
                 };
                 match parsed {
-                    Ok(p) => {
+                    Ok(mut p) => {
                         bad = 0;
+                        motion.observe(Instant::now(), p.cam.position);
+                        p.velocity = motion.velocity();
                         mailbox.put(p);
                     }
                     Err(e) => {
@@ -190,6 +234,7 @@ async fn client(
     let min_interval = Duration::from_secs_f64(1.0 / state.config.ws_max_fps.max(0.1));
     let mut last_started: Option<Instant> = None;
     let mut last_set: Vec<u32> = Vec::new();
+    let mut held = HeldSet::new(Duration::from_millis(smoothing.hold_ms.into()));
     let mut since_full = u32::MAX;
     let mut shutdown = state.shutdown.clone();
     let mut reader = reader;
@@ -214,11 +259,19 @@ async fn client(
         let Some(p) = mailbox.take() else { continue };
         let started = Instant::now();
         last_started = Some(started);
+        let mut cams = vec![p.cam.clone()];
+        let ahead = p.velocity * (smoothing.lookahead_ms as f32 * 1e-3);
+        if ahead != Vec3::ZERO {
+            // The pose was valid, so the moved one is too unless it left f32 range.
+            if let Ok(cam) = Camera::new(&moved(&p.pose, ahead)) {
+                cams.push(cam);
+            }
+        }
         let answer = state
             .worker
-            .cull(scene.clone(), vec![p.cam], options)
+            .cull(scene.clone(), cams, options)
             .await
-            .map(|mut v| v.remove(0));
+            .map(|results| smoothed(results, &mut held, &p.cam, &scene));
         seq = seq.wrapping_add(1);
         let frame = match answer {
             Err(e) => Frame::Error(ErrorFrame {
@@ -257,6 +310,40 @@ async fn client(
         let mut s = sink.lock().await;
         let _ = tokio::time::timeout(send_timeout, s.send(Message::Close(Some(frame)))).await;
     }
+}
+
+/// The set to stream from the culls of a pose and its lookahead (if any): their union
+/// plus the held objects. Objects streamed outside the pose's frustum count as
+/// candidates, so that candidates − visible (what clients show as culled by occlusion)
+/// stays what it says. Without smoothing this is the pose's own answer.
+fn smoothed(
+    results: Vec<PoseResult>,
+    held: &mut HeldSet,
+    cam: &Camera,
+    scene: &SceneEntry,
+) -> PoseResult {
+    let mut it = results.into_iter();
+    let mut r = it.next().expect("one result per pose");
+    let culled = r.visible.clone();
+    for other in it {
+        r.visible = union(&r.visible, &other.visible);
+    }
+    r.visible = held.update(Instant::now(), std::mem::take(&mut r.visible));
+    if r.visible.len() != culled.len() {
+        let outside = r
+            .visible
+            .iter()
+            .filter(|id| culled.binary_search(id).is_err())
+            .filter(|&&id| {
+                let [lo, hi] = scene.objects[id as usize].aabb;
+                !cam.intersects(&Aabb::new(lo.into(), hi.into()))
+            })
+            .count() as u32;
+        r.stats.candidates += outside;
+        r.stats.culled_by_frustum = r.stats.culled_by_frustum.saturating_sub(outside);
+        r.stats.culled_by_occlusion = r.stats.candidates.saturating_sub(r.visible.len() as u32);
+    }
+    r
 }
 
 /// The answer to pose `ack`: a delta from `last_set` (the set last sent to this client) to
@@ -333,14 +420,17 @@ fn bad(code: ErrorCode, message: String) -> ErrorFrame {
 fn parse_binary(bytes: &[u8]) -> Result<Pending, ErrorFrame> {
     match Frame::decode(bytes) {
         Ok(Frame::Pose(p)) => {
-            let cam = Camera::new(&p.to_pose()).map_err(|e| ErrorFrame {
+            let pose = p.to_pose();
+            let cam = Camera::new(&pose).map_err(|e| ErrorFrame {
                 ack: p.seq,
                 ..bad(ErrorCode::InvalidPose, e.to_string())
             })?;
             Ok(Pending {
                 seq: p.seq,
+                pose,
                 cam,
                 want_full: p.want_full,
+                velocity: Vec3::ZERO,
             })
         }
         Ok(other) => Err(bad(
@@ -360,8 +450,10 @@ fn parse_text(text: &str) -> Result<Pending, ErrorFrame> {
     })?;
     Ok(Pending {
         seq: m.seq,
+        pose: m.pose,
         cam,
         want_full: m.full,
+        velocity: Vec3::ZERO,
     })
 }
 

@@ -38,3 +38,4 @@ pub fn scenes_dir() -> Option<PathBuf> {
 }
 
 pub mod server;
+pub mod ws;

@@ -101,20 +101,13 @@ impl TestServer {
     }
 }
 
-/// A street-level walk through the demo city: along the x axis on the z = 0 street,
-/// eye 1.7 m up, looking roughly along the walk with a slow sway.
+/// A street-level walk through the demo city: along the x axis on the z = 0 street from
+/// x = −150 m to 150 m, eye 1.7 m up, looking roughly along the walk with a slow sway.
 pub fn street_walk(n: usize, viewport: [u32; 2]) -> Vec<Pose> {
     (0..n)
         .map(|i| {
             let x = -150.0 + 300.0 * i as f32 / n as f32;
-            let yaw = -std::f32::consts::FRAC_PI_2 + 0.6 * (i as f32 * 0.05).sin();
-            let (s, c) = (yaw / 2.0).sin_cos();
-            Pose {
-                rotation: Some([0.0, s, 0.0, c]),
-                look_at: None,
-                viewport,
-                ..Pose::looking_at([x, 1.7, 0.0], [0.0; 3])
-            }
+            homcull::loadgen::street_pose([x, 1.7, 0.0], i as f32, viewport)
         })
         .collect()
 }

@@ -115,7 +115,8 @@ export class HomcullClient extends EventTarget {
    * @param {object} opts
    * @param {string} [opts.url] base URL of the server (http/https; default: the page's origin)
    * @param {string} [opts.scene] scene id (default `demo`)
-   * @param {object} [opts.params] stream query options: {method, threshold, deb}
+   * @param {object} [opts.params] stream query options: {method, threshold, deb,
+   *   lookahead_ms, hold_ms} (the last two make the stream a superset of the pose's cull)
    * @param {Function} [opts.WebSocket] WebSocket constructor (default: the global one)
    * @param {Function} [opts.requestAnimationFrame] frame scheduler (default: the global one, else a 16 ms timer)
    * @param {Function} [opts.fetch] used to explain a failed connection (default: the global one)

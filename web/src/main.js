@@ -366,9 +366,18 @@ function startPose(info) {
 
 // --- streaming -----------------------------------------------------------------------
 
+/**
+ * Stream smoothing the viewer asks for (see the server's stream options): the server also
+ * culls the pose 150 ms ahead along the walk, so that what walking reveals is in the set
+ * before the camera gets there, and keeps objects for 300 ms after their last sighting,
+ * so that tiny distant objects do not flicker. `?lookahead_ms=0&hold_ms=0` turns both off
+ * (then the drawn set is exactly `POST /cull`'s for the pose sent).
+ */
+export const SMOOTHING = { lookahead_ms: 150, hold_ms: 300 };
+
 function connect(sceneId) {
-  const params = {};
-  for (const k of ["method", "threshold", "deb"]) if (query.has(k)) params[k] = query.get(k);
+  const params = { ...SMOOTHING };
+  for (const k of ["method", "threshold", "deb", "lookahead_ms", "hold_ms"]) if (query.has(k)) params[k] = query.get(k);
   const client = new HomcullClient({ url: location.origin, scene: sceneId, params });
   app.client = client;
   client.addEventListener("state", (e) => {

@@ -1,0 +1,103 @@
+//! WebSocket helpers of the integration tests: connect (checking the hello frame), read
+//! frames, send poses, track the visible set through full and delta frames.
+
+use std::time::Duration;
+
+use futures_util::StreamExt;
+use homcull_proto::frame::{Frame, PoseFrame, apply_delta};
+use homcull_proto::{CullResponse, Pose};
+use serde_json::json;
+use tokio_tungstenite::tungstenite::Message;
+
+use super::server::TestServer;
+
+pub type Ws =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+pub async fn connect(srv: &TestServer, query: &str) -> Ws {
+    let (mut ws, _) =
+        tokio_tungstenite::connect_async(srv.ws_url(&format!("/v1/scenes/demo/stream{query}")))
+            .await
+            .expect("upgrade");
+    match next_frame(&mut ws).await {
+        Frame::Hello(h) => {
+            let info: serde_json::Value = serde_json::from_str(&h.info_json).unwrap();
+            assert_eq!(info["protocol_version"], homcull_proto::PROTOCOL_VERSION);
+            assert_eq!(info["scene"]["id"], "demo");
+            assert_eq!(
+                h.object_count,
+                info["scene"]["objects"].as_u64().unwrap() as u32
+            );
+        }
+        f => panic!("expected hello, got {f:?}"),
+    }
+    ws
+}
+
+pub async fn next_frame(ws: &mut Ws) -> Frame {
+    loop {
+        let msg = tokio::time::timeout(Duration::from_secs(60), ws.next())
+            .await
+            .expect("a frame within 60 s")
+            .expect("stream open")
+            .expect("no socket error");
+        match msg {
+            Message::Binary(b) => return Frame::decode(&b).expect("server frames decode"),
+            Message::Ping(_) | Message::Pong(_) => continue,
+            m => panic!("unexpected message {m:?}"),
+        }
+    }
+}
+
+pub fn pose_frame(seq: u32, pose: &Pose, want_full: bool) -> Message {
+    Message::Binary(
+        Frame::Pose(PoseFrame::from_pose(seq, want_full, pose).unwrap())
+            .encode()
+            .into(),
+    )
+}
+
+/// Client-side state: the visible set kept up to date by full and delta frames.
+#[derive(Default)]
+pub struct Tracker {
+    pub set: Vec<u32>,
+    pub full_bytes: usize,
+    pub delta_bytes: usize,
+    pub frames: usize,
+    pub dropped: u32,
+}
+
+impl Tracker {
+    /// Applies one visibility frame; returns the pose seq it answers.
+    pub fn apply(&mut self, f: &Frame) -> u32 {
+        self.frames += 1;
+        match f {
+            Frame::Full(v) => {
+                self.full_bytes += f.encoded_len();
+                self.dropped += v.stats.dropped_poses;
+                self.set = v.ids.clone();
+                v.ack
+            }
+            Frame::Delta(d) => {
+                self.delta_bytes += f.encoded_len();
+                self.dropped += d.stats.dropped_poses;
+                apply_delta(&mut self.set, d).expect("deltas apply to the last set");
+                d.ack
+            }
+            f => panic!("expected a visibility frame, got {f:?}"),
+        }
+    }
+}
+
+pub async fn rest_cull(http: &reqwest::Client, srv: &TestServer, pose: &Pose) -> Vec<u32> {
+    let r: CullResponse = http
+        .post(srv.url("/v1/scenes/demo/cull"))
+        .json(&json!({ "pose": pose }))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    r.visible
+}
