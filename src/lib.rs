@@ -17,6 +17,7 @@
 //! - [`cull`]: the `Culler` trait, per-pose planning, methods frustum/hom/hzb/exact.
 //! - [`engine`]: a prepared scene with its backend (GPU, or CPU fallback).
 //! - [`eval`]: runs methods against the oracle and aggregates quality and timing.
+//! - [`loss`]: which hidden objects HOM keeps, and why (boxes or occluders).
 //! - [`sampler`]: random poses where a person would stand.
 //! - [`pvs`]: the OpenArena maps' own potentially-visible sets, an independent check.
 //! - [`server`]: the HTTP/WebSocket server (axum), its GPU worker and data dir.
@@ -34,6 +35,7 @@ pub mod geom;
 pub mod gpu;
 pub mod hom;
 pub mod loadgen;
+pub mod loss;
 pub mod occluders;
 pub mod pvs;
 pub mod report;

@@ -2,7 +2,8 @@
 //! written as `DIR/report.md` plus PNG plots (issue 6).
 //!
 //! Sections, each measured side by side on the same adapter in the same run:
-//! 1. quality per scene and method against the exact oracle (threshold 1.0);
+//! 1. quality per scene and method against the exact oracle (threshold 1.0), and where
+//!    HOM's efficiency is lost (in [`losses`]);
 //! 2. the HOM threshold curve (1.0 … 0.8) with the pixel error each threshold allows;
 //! 3. the occluder budget sweep (demo city, munich);
 //! 4. time per pose against viewport size and batch size, with log-log slopes;
@@ -14,6 +15,7 @@
 //! which case every time in it is CPU time. `report.md` is rewritten after each
 //! section, so an interrupted run leaves what it measured.
 
+mod losses;
 pub mod plot;
 mod scaling;
 mod server;
@@ -254,6 +256,8 @@ pub fn main(a: ReportArgs) -> Result<()> {
         r.save()?;
         if run(ReportSection::Quality) {
             let evals = quality(&mut r, &scenes)?;
+            r.save()?;
+            losses::section(&mut r, &scenes)?;
             r.save()?;
             thresholds(&mut r, &evals)?;
             r.save()?;
