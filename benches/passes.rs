@@ -42,6 +42,7 @@ fn settings(method: Method) -> CullSettings {
             method,
             threshold: 1.0,
             deb: DebVariant::Raster,
+            refine: true,
         },
         prepared(),
     )
@@ -115,6 +116,7 @@ fn cpu_plan(b: Bencher, deb: DebVariant) {
             method: Method::Hom,
             threshold: 1.0,
             deb,
+            refine: true,
         },
         p,
     );

@@ -54,6 +54,9 @@ pub struct CullParams {
     /// Depth estimation buffer: plane, tiles or raster.
     #[arg(long, default_value = "raster")]
     pub deb: DebVariant,
+    /// hom: the box test alone, without the per-pixel refinement of its survivors.
+    #[arg(long)]
+    pub no_refine: bool,
     /// Occluder triangles rendered per pose.
     #[arg(long, env = "HOMCULL_BUDGET", default_value_t = crate::occluders::OccluderParams::default().budget_triangles)]
     pub budget: u32,
@@ -86,7 +89,9 @@ pub struct EvalArgs {
     /// A JSON array of poses in the wire format.
     #[arg(long)]
     pub poses_file: Option<PathBuf>,
-    /// Methods to compare with the oracle: hom, hom-plane, hom-tiles, hom-raster, hzb, frustum.
+    /// Methods to compare with the oracle: hom, hom-refine, hom-raster, hom-tiles,
+    /// hom-plane, hzb, frustum (hom-DEB is the box test alone, hom-refine the raster DEB
+    /// with per-pixel refinement, plain hom follows --deb and --no-refine).
     #[arg(long, value_delimiter = ',', default_value = "hom,hzb,frustum")]
     pub methods: Vec<String>,
     /// Viewport for sampled poses, WIDTHxHEIGHT.

@@ -18,10 +18,10 @@ use homcull_proto::{CullOptions, CullStats, DebVariant, Method};
 use crate::bvh::BoxBvh;
 use crate::camera::Camera;
 use crate::hom::deb::{DEFAULT_TILE, DepthEstimationBuffer};
-use crate::hom::level_thresholds;
 use crate::hom::pyramid::{self, LevelLayout};
-use crate::hom::raster::{raster_depth, raster_ids};
+use crate::hom::raster::{raster_depth, raster_ids, raster_triangle};
 use crate::hom::test::{PyramidView, hom_occluded, hzb_occluded};
+use crate::hom::{in_front, level_thresholds};
 use crate::occluders::{OccluderDb, OccluderParams, OccluderSelection};
 use crate::scene::Scene;
 
@@ -76,6 +76,11 @@ impl CullSettings {
             budget_triangles: prepared.occluders.params.budget_triangles,
             deb_tile: DEFAULT_TILE,
         }
+    }
+
+    /// True when the box test's survivors are refined per pixel (`hom` with `refine`).
+    pub fn refines(&self) -> bool {
+        self.options.method == Method::Hom && self.options.refine
     }
 
     pub fn validate(&self) -> Result<(), CullError> {
@@ -306,6 +311,32 @@ impl CpuBackend {
         mask
     }
 
+    /// True if every pixel centre the object covers lies behind the occluder depth map
+    /// `occluders` (level 0, 0 = uncovered), with the HOM test's depth margin.
+    pub fn hidden_per_pixel(scene: &Scene, cam: &Camera, occluders: &[f32], id: u32) -> bool {
+        let o = &scene.objects[id as usize];
+        scene.triangles_of(o).chunks_exact(3).all(|t| {
+            let tri = [0, 1, 2].map(|k| scene.positions[t[k] as usize]);
+            let mut hidden = true;
+            raster_triangle(cam, tri, |x, y, d| {
+                let occ = occluders[(y * cam.width + x) as usize];
+                hidden &= occ > 0.0 && in_front(occ, d);
+            });
+            hidden
+        })
+    }
+
+    /// The refinement of the box test (`refine`): clears the bit of every object that
+    /// passed it but is hidden at each of its own pixels. GPU twin: `fs_refine` in
+    /// `raster.wgsl`.
+    pub fn refine(scene: &Scene, p: &PosePlan, occluders: &[f32], mask: &mut [u32]) {
+        for &c in &p.candidates {
+            if has_bit(mask, c) && Self::hidden_per_pixel(scene, &p.cam, occluders, c) {
+                mask[c as usize / 32] &= !(1 << (c % 32));
+            }
+        }
+    }
+
     /// The exact oracle on the CPU: objects owning at least one pixel of the ID buffer.
     pub fn exact(scene: &Scene, p: &PosePlan) -> Vec<u32> {
         let n = (p.cam.width * p.cam.height) as usize;
@@ -343,8 +374,13 @@ impl Culler for CpuBackend {
                 Method::Exact => Self::exact(scene, p),
                 _ => {
                     let layout = LevelLayout::new(p.cam.width, p.cam.height);
-                    let (opacity, depth) = pyramid::build(&layout, &Self::occluder_depth(scene, p));
-                    Self::test_boxes(scene, p, s, &layout, &opacity, &depth)
+                    let occluders = Self::occluder_depth(scene, p);
+                    let (opacity, depth) = pyramid::build(&layout, &occluders);
+                    let mut mask = Self::test_boxes(scene, p, s, &layout, &opacity, &depth);
+                    if s.refines() {
+                        Self::refine(scene, p, &occluders, &mut mask);
+                    }
+                    mask
                 }
             })
             .collect())

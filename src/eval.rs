@@ -24,13 +24,16 @@ pub struct MethodSpec {
 }
 
 impl MethodSpec {
-    /// Parses `hom`, `hom-plane`, `hom-tiles`, `hom-raster`, `hzb`, `frustum`, `exact`;
-    /// `threshold` and `deb` are the defaults for plain `hom`.
-    pub fn parse(s: &str, threshold: f32, deb: DebVariant) -> Result<Self, String> {
-        let (method, deb) = match s.split_once('-') {
-            Some(("hom", v)) => (Method::Hom, v.parse::<DebVariant>()?),
+    /// Parses `hom`, `hom-refine`, `hom-plane`, `hom-tiles`, `hom-raster`, `hzb`,
+    /// `frustum`, `exact`. `hom-DEB` is the box test alone with that DEB, `hom-refine` the
+    /// raster DEB with per-pixel refinement; `threshold`, `deb` and `refine` are what plain
+    /// `hom` uses.
+    pub fn parse(s: &str, threshold: f32, deb: DebVariant, refine: bool) -> Result<Self, String> {
+        let (method, deb, refine) = match s.split_once('-') {
+            Some(("hom", "refine")) => (Method::Hom, DebVariant::Raster, true),
+            Some(("hom", v)) => (Method::Hom, v.parse::<DebVariant>()?, false),
             Some(_) => return Err(format!("unknown method `{s}`")),
-            None => (s.parse::<Method>()?, deb),
+            None => (s.parse::<Method>()?, deb, refine),
         };
         Ok(MethodSpec {
             name: s.to_string(),
@@ -38,6 +41,7 @@ impl MethodSpec {
                 method,
                 threshold,
                 deb,
+                refine,
             },
         })
     }

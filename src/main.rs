@@ -116,6 +116,7 @@ fn cull(a: CullArgs) -> Result<()> {
         method: a.method,
         threshold: a.params.threshold,
         deb: a.params.deb,
+        refine: !a.params.no_refine,
     });
     let r = engine
         .cull(std::slice::from_ref(&cam), &settings)?
@@ -169,7 +170,10 @@ fn eval(a: EvalArgs) -> Result<()> {
     let methods = a
         .methods
         .iter()
-        .map(|m| MethodSpec::parse(m, a.params.threshold, a.params.deb).map_err(anyhow::Error::msg))
+        .map(|m| {
+            MethodSpec::parse(m, a.params.threshold, a.params.deb, !a.params.no_refine)
+                .map_err(anyhow::Error::msg)
+        })
         .collect::<Result<Vec<_>>>()?;
     let mut engine = engine(scene, a.params.budget)?;
     eprintln!(

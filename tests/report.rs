@@ -72,8 +72,8 @@ fn quick_report_writes_markdown_and_plots() {
     }
     assert_eq!(
         checked,
-        4 * scenes_seen.len(),
-        "hom ×3 DEBs + hzb per scene"
+        5 * scenes_seen.len(),
+        "hom-refine, hom ×3 DEBs and hzb per scene"
     );
 
     // The server section measures WebSocket clients with batching on and off, and REST

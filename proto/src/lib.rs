@@ -177,6 +177,10 @@ pub struct CullOptions {
     pub threshold: f32,
     /// Depth estimation buffer variant used by `hom`.
     pub deb: DebVariant,
+    /// `hom` only: test the objects that pass the box test once more, per pixel of
+    /// their own triangles against the occluders (default true). Culls nearly every
+    /// hidden object a bounding box cannot; `false` is the box test alone.
+    pub refine: bool,
 }
 
 impl Default for CullOptions {
@@ -185,6 +189,7 @@ impl Default for CullOptions {
             method: Method::Hom,
             threshold: 1.0,
             deb: DebVariant::Raster,
+            refine: true,
         }
     }
 }

@@ -16,6 +16,7 @@ use super::pyramid::{LevelParams, PyramidPass};
 use super::raster::{
     DEPTH_FORMAT, DrawList, ID_FORMAT, OCCLUSION_FORMAT, RasterKind, RasterPass, indirect_draws,
 };
+use super::refine::{RefineParams, RefinePass};
 use super::scene_buffers::SceneBuffers;
 use super::test_pass::{GroupParams, TestConfig, TestPass};
 use super::{GpuContext, GpuError, UNIFORM_SLOT, slotted};
@@ -130,6 +131,7 @@ impl SlotTargets {
 /// one set serves every scene, and a server with many scenes holds it once.
 pub struct SharedPasses {
     raster: RasterPass,
+    refine: RefinePass,
     pyramid: PyramidPass,
     test: TestPass,
     oracle: OraclePass,
@@ -139,8 +141,10 @@ pub struct SharedPasses {
 
 impl SharedPasses {
     fn new(ctx: &GpuContext) -> Self {
+        let raster = RasterPass::new(ctx);
         SharedPasses {
-            raster: RasterPass::new(ctx),
+            refine: RefinePass::new(ctx, &raster),
+            raster,
             pyramid: PyramidPass::new(ctx),
             test: TestPass::new(ctx),
             oracle: OraclePass::new(ctx),
@@ -165,6 +169,34 @@ fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
         contents: if bytes.is_empty() { &fallback } else { bytes },
         usage: wgpu::BufferUsages::STORAGE,
     })
+}
+
+/// A 16-byte uniform slot of `buffer` for dynamic-offset binding.
+fn uniform_slot(buffer: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
+    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+        buffer,
+        offset: 0,
+        size: wgpu::BufferSize::new(16),
+    })
+}
+
+/// The refinement's draws: indirect (filtered on the GPU) or one call per candidate.
+enum RefineDraws {
+    Indirect {
+        buffer: wgpu::Buffer,
+        ranges: Vec<(u32, u32)>,
+        filter_bg: wgpu::BindGroup,
+    },
+    Direct(Vec<Vec<(u32, u32, u32)>>),
+}
+
+/// What the refinement of one batch records with.
+struct RefineInputs {
+    draws: RefineDraws,
+    /// Indirect draws per group (for the filter dispatch).
+    group_draws: Vec<u32>,
+    refined: wgpu::Buffer,
+    raster_bg: wgpu::BindGroup,
 }
 
 /// Draw calls `(first_index, index_count, object_id)` for the given objects.
@@ -214,6 +246,166 @@ impl GpuBackend {
             *t = Some(SlotTargets::new(&self.ctx.device, width, height));
         }
         t
+    }
+
+    /// Buffers and bind groups of the refinement pass for a batch (`crate::gpu::refine`):
+    /// every pose's candidates as draws (filtered on the GPU to the box test's survivors
+    /// when draws are indirect), the second bitmask, and per-pose and per-group params.
+    fn refine_inputs(
+        &self,
+        plans: &[PosePlan],
+        groups: &[(u32, u32)],
+        box_mask: &wgpu::Buffer,
+        occlusion: &wgpu::TextureView,
+        words: u32,
+    ) -> RefineInputs {
+        let device = &self.ctx.device;
+        let pass = &self.passes.refine;
+        let draws = plans
+            .iter()
+            .map(|p| object_draws(&self.draws, &p.candidates));
+        let mut group_draws = Vec::new();
+        let draws = if self.ctx.indirect_draws {
+            let (buffer, ranges) = indirect_draws(device, draws, wgpu::BufferUsages::STORAGE);
+            let draw_pose: Vec<u32> = ranges
+                .iter()
+                .enumerate()
+                .flat_map(|(p, &(_, n))| std::iter::repeat_n(p as u32, n as usize))
+                .collect();
+            let params: Vec<RefineParams> = groups
+                .iter()
+                .map(|&(a, b)| {
+                    let first = ranges[a as usize].0;
+                    let (last, n) = ranges[b as usize - 1];
+                    RefineParams {
+                        a: first,
+                        b: last + n - first,
+                        words_per_pose: words,
+                        _pad: 0,
+                    }
+                })
+                .collect();
+            group_draws = params.iter().map(|p| p.b).collect();
+            let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("refine filter params"),
+                contents: &slotted(&params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let draw_pose = storage(device, "draw pose", bytemuck::cast_slice(&draw_pose));
+            let filter_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("refine filter"),
+                layout: &pass.filter_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: uniform_slot(&params),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: box_mask.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: draw_pose.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: buffer.as_entire_binding(),
+                    },
+                ],
+            });
+            RefineDraws::Indirect {
+                buffer,
+                ranges,
+                filter_bg,
+            }
+        } else {
+            RefineDraws::Direct(draws.collect())
+        };
+        let refined = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("refined visibility mask"),
+            size: (plans.len() as u32 * words) as u64 * 4,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let pose_params: Vec<RefineParams> = groups
+            .iter()
+            .flat_map(|&(a, b)| {
+                (a..b).map(move |p| RefineParams {
+                    a: p - a,
+                    b: p,
+                    words_per_pose: words,
+                    _pad: 0,
+                })
+            })
+            .collect();
+        let pose_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("refine params"),
+            contents: &slotted(&pose_params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let raster_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("refine raster"),
+            layout: &pass.raster_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(occlusion),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: box_mask.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: refined.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: uniform_slot(&pose_params),
+                },
+            ],
+        });
+        RefineInputs {
+            draws,
+            group_draws,
+            refined,
+            raster_bg,
+        }
+    }
+
+    /// Records the refinement of poses `range` (group `g`), after its test pass.
+    fn record_refine(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        t: &SlotTargets,
+        pose_bg: &wgpu::BindGroup,
+        r: &RefineInputs,
+        g: usize,
+        range: std::ops::Range<u32>,
+    ) {
+        let pass = &self.passes.refine;
+        if let RefineDraws::Indirect { filter_bg, .. } = &r.draws {
+            pass.record_filter(encoder, filter_bg, g as u32, r.group_draws[g]);
+        }
+        for p in range {
+            let draws = match &r.draws {
+                RefineDraws::Indirect { buffer, ranges, .. } => {
+                    let (first, count) = ranges[p as usize];
+                    DrawList::Indirect(buffer, first, count)
+                }
+                RefineDraws::Direct(lists) => DrawList::Direct(lists[p as usize].clone()),
+            };
+            pass.record_raster(
+                encoder,
+                &t.depth_view,
+                pose_bg,
+                &r.raster_bg,
+                p,
+                &self.scene,
+                draws,
+            );
+        }
     }
 
     /// Reads back a buffer region (blocking); used for the bitmask and by tests.
@@ -375,13 +567,6 @@ impl GpuBackend {
             contents: &slotted(&group_params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        fn dyn_uniform(buffer: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
-            wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer,
-                offset: 0,
-                size: wgpu::BufferSize::new(16),
-            })
-        }
         // Objects each pose rasterizes: all candidates for the oracle, occluders otherwise.
         let drawn = |p: &PosePlan| -> Vec<(u32, u32, u32)> {
             object_draws(
@@ -396,7 +581,7 @@ impl GpuBackend {
         let indirect = self
             .ctx
             .indirect_draws
-            .then(|| indirect_draws(device, plans.iter().map(drawn)));
+            .then(|| indirect_draws(device, plans.iter().map(drawn), wgpu::BufferUsages::empty()));
         let draw_list = |p: u32| match &indirect {
             Some((buffer, ranges)) => {
                 let (first, count) = ranges[p as usize];
@@ -405,6 +590,7 @@ impl GpuBackend {
             None => DrawList::Direct(drawn(&plans[p as usize])),
         };
         let mut encoder = device.create_command_encoder(&Default::default());
+        let mut refined_mask = None;
 
         if exact {
             let ids_view = SlotTargets::array_view(&t.ids);
@@ -414,7 +600,7 @@ impl GpuBackend {
                 entries: &[
                     wgpu::BindGroupEntry {
                         binding: 0,
-                        resource: dyn_uniform(&group_buf),
+                        resource: uniform_slot(&group_buf),
                     },
                     wgpu::BindGroupEntry {
                         binding: 1,
@@ -508,7 +694,7 @@ impl GpuBackend {
                     },
                     wgpu::BindGroupEntry {
                         binding: 1,
-                        resource: dyn_uniform(&group_buf),
+                        resource: uniform_slot(&group_buf),
                     },
                     wgpu::BindGroupEntry {
                         binding: 2,
@@ -540,6 +726,9 @@ impl GpuBackend {
                     },
                 ],
             });
+            let refine = s
+                .refines()
+                .then(|| self.refine_inputs(plans, &groups, &mask, &occlusion_view, words));
             for (g, &(a, b)) in groups.iter().enumerate() {
                 for p in a..b {
                     self.passes.raster.record(
@@ -559,6 +748,12 @@ impl GpuBackend {
                 self.passes
                     .test
                     .record(&mut encoder, &test_bg, g as u32, group_params[g].b);
+                if let Some(r) = &refine {
+                    self.record_refine(&mut encoder, t, &pose_bg, r, g, a..b);
+                }
+            }
+            if let Some(r) = refine {
+                refined_mask = Some(r.refined);
             }
         }
         tracing::debug!(
@@ -567,7 +762,8 @@ impl GpuBackend {
             record_ms = started.elapsed().as_secs_f64() * 1e3,
             "recorded a batch"
         );
-        let bytes = self.read_buffer(encoder, &mask, (p_count * words) as u64 * 4)?;
+        let result = refined_mask.as_ref().unwrap_or(&mask);
+        let bytes = self.read_buffer(encoder, result, (p_count * words) as u64 * 4)?;
         let all: &[u32] = bytemuck::cast_slice(&bytes);
         Ok(all
             .chunks_exact(words as usize)

@@ -16,6 +16,7 @@ pub mod batch;
 pub mod oracle;
 pub mod pyramid;
 pub mod raster;
+pub mod refine;
 pub mod scene_buffers;
 pub mod test_pass;
 

@@ -7,6 +7,7 @@
 //! depth of the nearest occluder per pixel (0 = uncovered) to an `r32float` target;
 //! the oracle writes the nearest object's ID to an `r32uint` target.
 
+use super::scene_buffers::SceneBuffers;
 use super::{GpuContext, UNIFORM_SLOT, uniform_entry};
 
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -25,9 +26,18 @@ pub enum RasterKind {
 /// The two raster pipelines and their pose binding.
 pub struct RasterPass {
     pub pose_layout: wgpu::BindGroupLayout,
+    /// `raster.wgsl`: the refinement pass draws with the same vertex stage.
+    pub module: wgpu::ShaderModule,
     depth_pipeline: wgpu::RenderPipeline,
     id_pipeline: wgpu::RenderPipeline,
 }
+
+const VERTEX_BUFFERS: [Option<wgpu::VertexBufferLayout<'static>>; 1] =
+    [Some(wgpu::VertexBufferLayout {
+        array_stride: 12,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+    })];
 
 impl RasterPass {
     pub fn new(ctx: &GpuContext) -> Self {
@@ -46,16 +56,7 @@ impl RasterPass {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(fs),
                 layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(wgpu::VertexBufferLayout {
-                        array_stride: 12,
-                        step_mode: wgpu::VertexStepMode::Vertex,
-                        attributes: &wgpu::vertex_attr_array![0 => Float32x3],
-                    })],
-                },
+                vertex: vertex_state(&module),
                 primitive: wgpu::PrimitiveState {
                     topology: wgpu::PrimitiveTopology::TriangleList,
                     cull_mode: None,
@@ -83,6 +84,31 @@ impl RasterPass {
             depth_pipeline: pipeline("fs_depth", OCCLUSION_FORMAT),
             id_pipeline: pipeline("fs_id", ID_FORMAT),
             pose_layout,
+            module,
+        }
+    }
+
+    /// The vertex stage every raster pipeline shares (`@invariant` position).
+    pub fn vertex_state(&self) -> wgpu::VertexState<'_> {
+        vertex_state(&self.module)
+    }
+
+    /// Binds the scene's geometry and draws `draws` in an open render pass.
+    pub fn draw(pass: &mut wgpu::RenderPass<'_>, scene: &SceneBuffers, draws: DrawList<'_>) {
+        pass.set_vertex_buffer(0, scene.vertices.slice(..));
+        pass.set_index_buffer(scene.indices.slice(..), wgpu::IndexFormat::Uint32);
+        match draws {
+            DrawList::Direct(list) => {
+                for (first, count, id) in list {
+                    if count > 0 {
+                        pass.draw_indexed(first..first + count, 0, id..id + 1);
+                    }
+                }
+            }
+            DrawList::Indirect(buffer, first, count) => {
+                let stride = std::mem::size_of::<wgpu::util::DrawIndexedIndirectArgs>() as u64;
+                pass.multi_draw_indexed_indirect(buffer, first as u64 * stride, count);
+            }
         }
     }
 
@@ -96,7 +122,7 @@ impl RasterPass {
         depth: &wgpu::TextureView,
         poses: &wgpu::BindGroup,
         pose_index: u32,
-        scene: &super::scene_buffers::SceneBuffers,
+        scene: &SceneBuffers,
         draws: DrawList<'_>,
     ) {
         let clear = match kind {
@@ -136,21 +162,16 @@ impl RasterPass {
             RasterKind::ObjectIds => &self.id_pipeline,
         });
         pass.set_bind_group(0, poses, &[(pose_index as u64 * UNIFORM_SLOT) as u32]);
-        pass.set_vertex_buffer(0, scene.vertices.slice(..));
-        pass.set_index_buffer(scene.indices.slice(..), wgpu::IndexFormat::Uint32);
-        match draws {
-            DrawList::Direct(list) => {
-                for (first, count, id) in list {
-                    if count > 0 {
-                        pass.draw_indexed(first..first + count, 0, id..id + 1);
-                    }
-                }
-            }
-            DrawList::Indirect(buffer, first, count) => {
-                let stride = std::mem::size_of::<wgpu::util::DrawIndexedIndirectArgs>() as u64;
-                pass.multi_draw_indexed_indirect(buffer, first as u64 * stride, count);
-            }
-        }
+        Self::draw(&mut pass, scene, draws);
+    }
+}
+
+fn vertex_state(module: &wgpu::ShaderModule) -> wgpu::VertexState<'_> {
+    wgpu::VertexState {
+        module,
+        entry_point: Some("vs"),
+        compilation_options: Default::default(),
+        buffers: &VERTEX_BUFFERS,
     }
 }
 
@@ -167,6 +188,7 @@ pub enum DrawList<'a> {
 pub fn indirect_draws(
     device: &wgpu::Device,
     per_pose: impl Iterator<Item = Vec<(u32, u32, u32)>>,
+    usage: wgpu::BufferUsages,
 ) -> (wgpu::Buffer, Vec<(u32, u32)>) {
     use wgpu::util::DeviceExt;
     let mut args: Vec<u8> = Vec::new();
@@ -196,7 +218,7 @@ pub fn indirect_draws(
     let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("indirect draws"),
         contents: &args,
-        usage: wgpu::BufferUsages::INDIRECT,
+        usage: wgpu::BufferUsages::INDIRECT | usage,
     });
     (buffer, ranges)
 }

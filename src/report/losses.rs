@@ -30,14 +30,19 @@ pub(super) fn section(r: &mut Report, scenes: &[Loaded]) -> Result<()> {
          is the efficiency of the ideal per-pixel test with the same occluders.\n\n\
          | scene | oracle-hidden | culled | efficiency | lost to boxes | lost to occluders | ceiling with exact bounds |\n\
          |---|---:|---:|---:|---:|---:|---:|",
-        p.viewport[0],
-        p.viewport[1],
+        p.viewport[0], p.viewport[1],
     );
     for (i, l) in scenes.iter().enumerate() {
         progress("efficiency loss", i, scenes.len(), &l.scene.name);
         let cams = l.cams(poses, p.viewport)?;
         let prep = PreparedScene::new(l.scene.clone(), OccluderParams::default());
-        let s = CullSettings::new(CullOptions::default(), &prep);
+        let s = CullSettings::new(
+            CullOptions {
+                refine: false,
+                ..Default::default()
+            },
+            &prep,
+        );
         let loss = efficiency_loss(&prep, &cams, &s);
         let share = |n: u64| 100.0 * n as f64 / loss.oracle_hidden.max(1) as f64;
         let _ = writeln!(

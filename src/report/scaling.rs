@@ -13,6 +13,11 @@ use crate::eval::{MethodSpec, evaluate};
 use crate::occluders::OccluderParams;
 use crate::scene::{demo_city, demo_city_sized};
 
+/// HOM as served by default: raster DEB with the per-pixel refinement.
+fn refined() -> Result<MethodSpec> {
+    MethodSpec::parse("hom-refine", 1.0, Default::default(), true).map_err(anyhow::Error::msg)
+}
+
 fn slope_text(points: &[(f64, f64)]) -> String {
     loglog_slope(points).map_or("–".into(), |s| format!("{s:.2}"))
 }
@@ -22,22 +27,23 @@ pub(super) fn viewport(r: &mut Report) -> Result<()> {
     let p = r.plan.clone();
     let city = Loaded::new(demo_city());
     let methods = [
+        refined()?,
         spec("hom-raster", 1.0),
-        MethodSpec::parse("hzb", 1.0, Default::default()).map_err(anyhow::Error::msg)?,
+        MethodSpec::parse("hzb", 1.0, Default::default(), true).map_err(anyhow::Error::msg)?,
     ];
     let _ = writeln!(
         r.md,
         "\n## 4. Scaling\n\n### Viewport size\n\n\
          Demo city, {} poses per viewport (the same eye positions: seed {}), batch {}, \
          budget {} triangles. Time per pose p50.\n\n\
-         | viewport | pixels | hom ms | hzb ms | exact ms | hom efficiency |\n\
-         |---|---:|---:|---:|---:|---:|",
+         | viewport | pixels | hom-refine ms | hom-raster ms | hzb ms | exact ms | hom-refine efficiency | hom-raster efficiency |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|",
         p.viewport_poses,
         super::SEED,
         p.batch.min(16),
         OccluderParams::default().budget_triangles
     );
-    let names = ["hom-raster", "hzb", "exact"];
+    let names = ["hom-refine", "hom-raster", "hzb", "exact"];
     let mut pts: Vec<Vec<(f64, f64)>> = vec![Vec::new(); names.len()];
     for (i, &vp) in p.viewports.iter().enumerate() {
         progress(
@@ -62,8 +68,16 @@ pub(super) fn viewport(r: &mut Report) -> Result<()> {
         }
         let _ = writeln!(
             r.md,
-            "| {}×{} | {} | {:.2} | {:.2} | {:.2} | {:.3} |",
-            vp[0], vp[1], px, ms[0], ms[1], ms[2], e.methods["hom-raster"].efficiency
+            "| {}×{} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} | {:.3} |",
+            vp[0],
+            vp[1],
+            px,
+            ms[0],
+            ms[1],
+            ms[2],
+            ms[3],
+            e.methods["hom-refine"].efficiency,
+            e.methods["hom-raster"].efficiency
         );
     }
     let slopes: Vec<String> = names
@@ -116,7 +130,7 @@ pub(super) fn batch(r: &mut Report) -> Result<()> {
     let _ = writeln!(
         r.md,
         "\n### Batch size\n\n\
-         HOM (raster DEB) on the demo city at {}×{}; each batch size runs \
+         HOM as served (raster DEB, refined) on the demo city at {}×{}; each batch size runs \
          max(4 × batch, 64) poses (at most {}) in batches of that size; time per pose is \
          total wall time ÷ poses.\n\n\
          | batch | poses | ms/pose | poses/s |\n|---:|---:|---:|---:|",
@@ -180,8 +194,9 @@ fn mem_available_bytes() -> Option<u64> {
 pub(super) fn objects(r: &mut Report) -> Result<()> {
     let p = r.plan.clone();
     let methods = [
+        refined()?,
         spec("hom-raster", 1.0),
-        MethodSpec::parse("frustum", 1.0, Default::default()).map_err(anyhow::Error::msg)?,
+        MethodSpec::parse("frustum", 1.0, Default::default(), true).map_err(anyhow::Error::msg)?,
     ];
     let _ = writeln!(
         r.md,
@@ -189,15 +204,15 @@ pub(super) fn objects(r: &mut Report) -> Result<()> {
          Synthetic cities from the demo generator (`scene::demo_city_sized`, N×N blocks), \
          {} poses each at {}×{}, batch {}, budget {} triangles. Time per pose p50; \
          ns/object = time per pose ÷ objects in the scene.\n\n\
-         | blocks | objects | triangles | hom ms | exact ms | frustum ms | hom ns/object | hom efficiency | false culls |\n\
-         |---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+         | blocks | objects | triangles | hom-refine ms | hom-raster ms | exact ms | frustum ms | hom-raster ns/object | hom-refine efficiency | hom-raster efficiency | false culls |\n\
+         |---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
         p.city_poses,
         p.viewport[0],
         p.viewport[1],
         p.batch.min(16),
         OccluderParams::default().budget_triangles
     );
-    let names = ["hom-raster", "exact", "frustum"];
+    let names = ["hom-refine", "hom-raster", "exact", "frustum"];
     let mut pts: Vec<Vec<(f64, f64)>> = vec![Vec::new(); names.len()];
     let mut skipped = Vec::new();
     for (i, &blocks) in p.city_blocks.iter().enumerate() {
@@ -233,18 +248,20 @@ pub(super) fn objects(r: &mut Report) -> Result<()> {
         for (k, m) in ms.iter().enumerate() {
             pts[k].push((objects, *m));
         }
-        let hom = &e.methods["hom-raster"];
+        let (refine, boxes) = (&e.methods["hom-refine"], &e.methods["hom-raster"]);
         let _ = writeln!(
             r.md,
-            "| {blocks}×{blocks} | {} | {} | {:.2} | {:.2} | {:.3} | {:.0} | {:.3} | {} |",
+            "| {blocks}×{blocks} | {} | {} | {:.2} | {:.2} | {:.2} | {:.3} | {:.0} | {:.3} | {:.3} | {} |",
             e.objects,
             e.triangles,
             ms[0],
             ms[1],
             ms[2],
-            ms[0] * 1e6 / objects,
-            hom.efficiency,
-            hom.false_culls
+            ms[3],
+            ms[1] * 1e6 / objects,
+            refine.efficiency,
+            boxes.efficiency,
+            refine.false_culls + boxes.false_culls
         );
     }
     let slopes: Vec<String> = names

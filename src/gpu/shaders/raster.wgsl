@@ -29,3 +29,36 @@ fn fs_depth(in: VsOut) -> @location(0) f32 {
 fn fs_id(in: VsOut) -> @location(0) u32 {
     return in.id;
 }
+
+// Refinement of HOM's box test: the objects that passed it are drawn once more, and a
+// fragment that is not behind the occluders (the pose's occlusion-map layer, with the
+// test's depth margin) marks its object visible. An object none of whose pixels does
+// that is hidden although its box is not. CPU twin: `CpuBackend::refine`.
+
+struct RefineParams {
+    slot: u32,           // the pose's layer of the occlusion map
+    pose: u32,           // the pose's index in the batch
+    words_per_pose: u32,
+    _pad: u32,
+}
+
+@group(1) @binding(0) var occlusion: texture_2d_array<f32>;
+@group(1) @binding(1) var<storage, read> box_mask: array<u32>;
+@group(1) @binding(2) var<storage, read_write> refined: array<atomic<u32>>;
+@group(1) @binding(3) var<uniform> rp: RefineParams;
+
+@fragment
+fn fs_refine(in: VsOut) {
+    let w = rp.pose * rp.words_per_pose + in.id / 32u;
+    let bit = 1u << (in.id % 32u);
+    // Only objects the box test kept (the draws of the others are filtered out where
+    // indirect draws exist; this keeps the direct-draw path right too).
+    if (box_mask[w] & bit) == 0u || (atomicLoad(&refined[w]) & bit) != 0u {
+        return;
+    }
+    let occ = textureLoad(occlusion, vec2<u32>(in.clip.xy), rp.slot, 0).r;
+    if occ > 0.0 && in_front(occ, in.depth) {
+        return;
+    }
+    atomicOr(&refined[w], bit);
+}
