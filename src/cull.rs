@@ -9,7 +9,8 @@
 //! reference of every pass.
 //!
 //! Methods: `frustum` (BVH only), `hom`, `hzb`, and `exact` (the ID-buffer oracle that
-//! defines ground truth).
+//! defines ground truth). `hom` with `refine` (the default) re-tests the objects that
+//! pass its box test per pixel of their own triangles ([`CpuBackend::refine`]).
 
 use std::time::Instant;
 

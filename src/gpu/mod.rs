@@ -6,11 +6,14 @@
 //!   one invariant vertex stage.
 //! - [`pyramid`]: level 0 and the 2×2 reductions (compute).
 //! - [`test_pass`]: the per-object HOM / HZB test (compute), writing a bitmask.
+//! - [`refine`]: HOM's refinement: the box test's survivors re-rasterized against the
+//!   occlusion map, writing a second bitmask.
 //! - [`oracle`]: ID buffer → visibility bitmask (compute).
 //! - [`batch`]: [`GpuBackend`], which records all passes of a batch of poses into one
 //!   submission with one readback.
 //!
-//! Every pass has a CPU twin in `hom/`; tests run both on the same input.
+//! Every pass has a CPU twin in `hom/` (the refinement's is `CpuBackend::refine`);
+//! tests run both on the same input.
 
 pub mod batch;
 pub mod oracle;
@@ -221,6 +224,14 @@ pub(crate) fn texture_array_entry(
         },
         count: None,
     }
+}
+
+/// Dispatches `groups` workgroups of a 1-D kernel, wrapping into rows of at most 65535
+/// (the per-dimension limit); kernels index `g.x + g.y · num_workgroups.x · WG`.
+pub(crate) fn dispatch_wide(pass: &mut wgpu::ComputePass<'_>, groups: u32) {
+    const MAX_DIM: u32 = 65_535;
+    let x = groups.clamp(1, MAX_DIM);
+    pass.dispatch_workgroups(x, groups.div_ceil(x), 1);
 }
 
 /// Uniform slots are 256 bytes apart (the dynamic-offset alignment every adapter accepts).

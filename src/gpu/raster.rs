@@ -52,33 +52,16 @@ impl RasterPass {
             bind_group_layouts: &[Some(&pose_layout)],
             immediate_size: 0,
         });
+        // Nearest wins (reversed Z).
         let pipeline = |fs: &str, format: wgpu::TextureFormat| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(fs),
-                layout: Some(&layout),
-                vertex: vertex_state(&module),
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleList,
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Greater),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(fs),
-                    compilation_options: Default::default(),
-                    targets: &[Some(format.into())],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+            triangle_pipeline(
+                device,
+                &layout,
+                &module,
+                fs,
+                &[Some(format.into())],
+                Some(wgpu::CompareFunction::Greater),
+            )
         };
         RasterPass {
             depth_pipeline: pipeline("fs_depth", OCCLUSION_FORMAT),
@@ -86,11 +69,6 @@ impl RasterPass {
             pose_layout,
             module,
         }
-    }
-
-    /// The vertex stage every raster pipeline shares (`@invariant` position).
-    pub fn vertex_state(&self) -> wgpu::VertexState<'_> {
-        vertex_state(&self.module)
     }
 
     /// Binds the scene's geometry and draws `draws` in an open render pass.
@@ -164,6 +142,46 @@ impl RasterPass {
         pass.set_bind_group(0, poses, &[(pose_index as u64 * UNIFORM_SLOT) as u32]);
         Self::draw(&mut pass, scene, draws);
     }
+}
+
+/// A pipeline drawing scene triangles with `raster.wgsl`'s vertex stage (`@invariant`
+/// position, shared by every raster pass so their coverage is identical) and the
+/// fragment entry `fs`. With `depth_test` the depth buffer keeps the nearest fragment;
+/// without it every fragment runs and nothing is written.
+pub fn triangle_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    fs: &str,
+    targets: &[Option<wgpu::ColorTargetState>],
+    depth_test: Option<wgpu::CompareFunction>,
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(fs),
+        layout: Some(layout),
+        vertex: vertex_state(module),
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(depth_test.is_some()),
+            depth_compare: Some(depth_test.unwrap_or(wgpu::CompareFunction::Always)),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(fs),
+            compilation_options: Default::default(),
+            targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }
 
 fn vertex_state(module: &wgpu::ShaderModule) -> wgpu::VertexState<'_> {

@@ -10,9 +10,9 @@
 //!    own vertex stage, so coverage matches the occlusion map and the oracle), no colour
 //!    target, writing a second bitmask. CPU twin: `CpuBackend::refine`.
 
-use super::raster::{DEPTH_FORMAT, DrawList, RasterPass};
+use super::raster::{DrawList, RasterPass, triangle_pipeline};
 use super::scene_buffers::SceneBuffers;
-use super::{GpuContext, UNIFORM_SLOT, storage_entry, uniform_entry};
+use super::{GpuContext, UNIFORM_SLOT, dispatch_wide, storage_entry, uniform_entry};
 
 /// `FilterParams` in `refine.wgsl` and `RefineParams` in `raster.wgsl`.
 #[repr(C)]
@@ -31,9 +31,8 @@ pub struct RefinePass {
     raster: wgpu::RenderPipeline,
 }
 
-/// Workgroup size of `filter_draws`, and the most workgroups in one dimension.
+/// Workgroup size of `filter_draws`.
 const WG: u32 = 64;
-const MAX_DIM: u32 = 65_535;
 
 impl RefinePass {
     pub fn new(ctx: &GpuContext, raster: &RasterPass) -> Self {
@@ -82,34 +81,9 @@ impl RefinePass {
             bind_group_layouts: &[Some(&raster.pose_layout), Some(&raster_layout)],
             immediate_size: 0,
         });
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("fs_refine"),
-            layout: Some(&layout),
-            vertex: raster.vertex_state(),
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                cull_mode: None,
-                ..Default::default()
-            },
-            // Every fragment runs: visibility is decided against the occlusion map, not
-            // against the other refined objects.
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(false),
-                depth_compare: Some(wgpu::CompareFunction::Always),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &raster.module,
-                entry_point: Some("fs_refine"),
-                compilation_options: Default::default(),
-                targets: &[],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        // No depth test: every fragment runs, and visibility is decided against the
+        // occlusion map, not against the other refined objects.
+        let pipeline = triangle_pipeline(device, &layout, &raster.module, "fs_refine", &[], None);
         RefinePass {
             filter_layout,
             filter,
@@ -135,9 +109,7 @@ impl RefinePass {
         });
         pass.set_pipeline(&self.filter);
         pass.set_bind_group(0, bind_group, &[(group as u64 * UNIFORM_SLOT) as u32]);
-        let groups = count.div_ceil(WG);
-        let x = groups.min(MAX_DIM);
-        pass.dispatch_workgroups(x, groups.div_ceil(x), 1);
+        dispatch_wide(&mut pass, count.div_ceil(WG));
     }
 
     /// Records one pose's refinement raster (`refine` bound with its params slot `pose`).

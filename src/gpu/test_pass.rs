@@ -3,7 +3,7 @@
 
 use homcull_proto::{DebVariant, Method};
 
-use super::{GpuContext, UNIFORM_SLOT, storage_entry, uniform_entry};
+use super::{GpuContext, UNIFORM_SLOT, dispatch_wide, storage_entry, uniform_entry};
 use crate::hom::{MAX_LEVELS, pyramid::LevelLayout};
 
 /// `TestConfig` in `test.wgsl`: what is the same for every pose of a batch.
@@ -76,8 +76,6 @@ pub struct TestPass {
 
 /// Workgroup size of the test kernel.
 const WG: u32 = 64;
-/// Most workgroups in one dispatch dimension.
-const MAX_DIM: u32 = 65_535;
 
 impl TestPass {
     pub fn new(ctx: &GpuContext) -> Self {
@@ -106,18 +104,12 @@ impl TestPass {
         if count == 0 {
             return;
         }
-        let groups = count.div_ceil(WG);
-        let (x, y) = if groups <= MAX_DIM {
-            (groups, 1)
-        } else {
-            (MAX_DIM, groups.div_ceil(MAX_DIM))
-        };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("object test"),
             timestamp_writes: None,
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, bind_group, &[(group as u64 * UNIFORM_SLOT) as u32]);
-        pass.dispatch_workgroups(x, y, 1);
+        dispatch_wide(&mut pass, count.div_ceil(WG));
     }
 }

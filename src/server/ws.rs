@@ -55,7 +55,10 @@ pub struct StreamQuery {
     pub threshold: Option<f32>,
     /// plane, tiles or raster (default).
     pub deb: Option<DebVariant>,
-    /// hom only: refine the box test per pixel (default true).
+    /// hom only: refine the box test per pixel. Default **false** for streams (true for
+    /// `POST /cull`): the refinement is exact for the pose sent, and a moving client that
+    /// draws the answer a round trip later sees the slivers it reveals late, which the
+    /// box test's slack covers (see README, "Smoothing").
     pub refine: Option<bool>,
     /// Also cull the pose extrapolated this far ahead along the client's recent motion
     /// and stream the union (0 = off, the default; at most 1000). Covers what walking
@@ -91,7 +94,7 @@ pub async fn stream(
         method: q.method.unwrap_or(defaults.method),
         threshold: q.threshold.unwrap_or(defaults.threshold),
         deb: q.deb.unwrap_or(defaults.deb),
-        refine: q.refine.unwrap_or(defaults.refine),
+        refine: q.refine.unwrap_or(false),
     };
     if !(options.threshold > 0.0 && options.threshold <= 1.0) {
         return Err(ApiError::bad_request(

@@ -89,10 +89,11 @@ impl Tracker {
     }
 }
 
+/// `POST /cull` with the stream's default options (`refine` is false for streams).
 pub async fn rest_cull(http: &reqwest::Client, srv: &TestServer, pose: &Pose) -> Vec<u32> {
     let r: CullResponse = http
         .post(srv.url("/v1/scenes/demo/cull"))
-        .json(&json!({ "pose": pose }))
+        .json(&json!({ "pose": pose, "options": { "refine": false } }))
         .send()
         .await
         .unwrap()

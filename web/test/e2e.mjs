@@ -207,7 +207,8 @@ async function main() {
     const cull = await getJson(`${base}/v1/scenes/demo/cull`, {
       method: "POST",
       headers: { "content-type": "application/json" },
-      body: JSON.stringify({ pose: { position, rotation, fov_y_deg, viewport, near, far } }),
+      // The viewer streams the box test alone (web/src/main.js STREAM_OPTIONS).
+      body: JSON.stringify({ pose: { position, rotation, fov_y_deg, viewport, near, far }, options: { refine: false } }),
     });
     assert.deepEqual(frame.ids, cull.visible, `${where}: streamed set differs from POST /cull`);
     for (const k of ["objects", "candidates", "culled_by_frustum", "culled_by_occlusion", "occluders_used"]) {
