@@ -36,7 +36,11 @@ fn main() -> anyhow::Result<()> {
     let gpu = homcull::gpu::open_gpu()?.map(Arc::new);
     let mut engine = Engine::new(homcull::scene::demo_city(), OccluderParams::default(), gpu);
     eprintln!("adapter: {}", engine.adapter());
-    let settings = engine.settings(CullOptions::default());
+    // What a stream culls by default: HOM's box test without the per-pixel refinement.
+    let settings = engine.settings(CullOptions {
+        refine: false,
+        ..Default::default()
+    });
     let step = SPEED / FPS;
     let ahead = (LOOKAHEAD_MS / 1000.0 * FPS).round() as usize;
     let n = (300.0 / step) as usize;

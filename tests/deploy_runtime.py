@@ -951,7 +951,9 @@ def scale_out(bin_path: str) -> None:
 
         # A WebSocket stream through nginx; the replica serving it is killed mid-stream.
         def rest_cull(port: int, pose: dict) -> list[int]:
-            st, res = post_json(f"http://127.0.0.1:{port}/v1/scenes/{sid}/cull", {"pose": pose})
+            # The stream's default options: HOM's box test without the refinement.
+            st, res = post_json(f"http://127.0.0.1:{port}/v1/scenes/{sid}/cull",
+                                {"pose": pose, "options": {"refine": False}})
             expect(st == 200, f"cull on :{port} answered {st}: {res}")
             return res["visible"]
 
