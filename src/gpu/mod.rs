@@ -226,11 +226,31 @@ pub(crate) fn texture_array_entry(
     }
 }
 
-/// Dispatches `groups` workgroups of a 1-D kernel, wrapping into rows of at most 65535
-/// (the per-dimension limit); kernels index `g.x + g.y · num_workgroups.x · WG`.
-pub(crate) fn dispatch_wide(pass: &mut wgpu::ComputePass<'_>, groups: u32) {
+/// Records a 1-D compute pass of `invocations` threads in workgroups of `wg`, with
+/// `bind_group` bound at uniform slot `slot`; nothing when `invocations` is 0. Wide
+/// dispatches wrap into rows of at most 65535 workgroups (the per-dimension limit), so
+/// kernels index `g.x + g.y · num_workgroups.x · wg`.
+pub(crate) fn record_wide(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    bind_group: &wgpu::BindGroup,
+    slot: u32,
+    invocations: u32,
+    wg: u32,
+) {
     const MAX_DIM: u32 = 65_535;
-    let x = groups.clamp(1, MAX_DIM);
+    if invocations == 0 {
+        return;
+    }
+    let groups = invocations.div_ceil(wg);
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, bind_group, &[(slot as u64 * UNIFORM_SLOT) as u32]);
+    let x = groups.min(MAX_DIM);
     pass.dispatch_workgroups(x, groups.div_ceil(x), 1);
 }
 

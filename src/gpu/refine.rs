@@ -12,7 +12,7 @@
 
 use super::raster::{DrawList, RasterPass, triangle_pipeline};
 use super::scene_buffers::SceneBuffers;
-use super::{GpuContext, UNIFORM_SLOT, dispatch_wide, storage_entry, uniform_entry};
+use super::{GpuContext, UNIFORM_SLOT, record_wide, storage_entry, uniform_entry};
 
 /// `FilterParams` in `refine.wgsl` and `RefineParams` in `raster.wgsl`.
 #[repr(C)]
@@ -100,16 +100,15 @@ impl RefinePass {
         group: u32,
         count: u32,
     ) {
-        if count == 0 {
-            return;
-        }
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("refine filter"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.filter);
-        pass.set_bind_group(0, bind_group, &[(group as u64 * UNIFORM_SLOT) as u32]);
-        dispatch_wide(&mut pass, count.div_ceil(WG));
+        record_wide(
+            encoder,
+            "refine filter",
+            &self.filter,
+            bind_group,
+            group,
+            count,
+            WG,
+        );
     }
 
     /// Records one pose's refinement raster (`refine` bound with its params slot `pose`).

@@ -3,7 +3,7 @@
 
 use homcull_proto::{DebVariant, Method};
 
-use super::{GpuContext, UNIFORM_SLOT, dispatch_wide, storage_entry, uniform_entry};
+use super::{GpuContext, record_wide, storage_entry, uniform_entry};
 use crate::hom::{MAX_LEVELS, pyramid::LevelLayout};
 
 /// `TestConfig` in `test.wgsl`: what is the same for every pose of a batch.
@@ -101,15 +101,14 @@ impl TestPass {
         group: u32,
         count: u32,
     ) {
-        if count == 0 {
-            return;
-        }
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("object test"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, bind_group, &[(group as u64 * UNIFORM_SLOT) as u32]);
-        dispatch_wide(&mut pass, count.div_ceil(WG));
+        record_wide(
+            encoder,
+            "object test",
+            &self.pipeline,
+            bind_group,
+            group,
+            count,
+            WG,
+        );
     }
 }
