@@ -244,7 +244,7 @@ fn set_bit(mask: &mut [u32], id: u32) {
     mask[id as usize / 32] |= 1 << (id % 32);
 }
 
-fn has_bit(mask: &[u32], id: u32) -> bool {
+pub(crate) fn has_bit(mask: &[u32], id: u32) -> bool {
     mask[id as usize / 32] & (1 << (id % 32)) != 0
 }
 

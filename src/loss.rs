@@ -20,7 +20,7 @@
 use rayon::prelude::*;
 
 use crate::camera::Camera;
-use crate::cull::{CpuBackend, CullSettings, PreparedScene, plan};
+use crate::cull::{CpuBackend, CullSettings, PreparedScene, has_bit, plan};
 use crate::hom::pyramid::{self, LevelLayout};
 
 /// Object counts summed over poses.
@@ -63,10 +63,6 @@ fn ratio(a: u64, b: u64) -> f64 {
     if b == 0 { 1.0 } else { a as f64 / b as f64 }
 }
 
-fn bit(mask: &[u32], id: u32) -> bool {
-    mask[id as usize / 32] & (1 << (id % 32)) != 0
-}
-
 /// Classifies, for every pose, the oracle-hidden objects HOM's box test keeps
 /// (settings `s`, which must be HOM's; `refine` is ignored: this measures what the
 /// refinement can win back).
@@ -84,9 +80,9 @@ pub fn efficiency_loss(prep: &PreparedScene, cams: &[Camera], s: &CullSettings) 
                 poses: 1,
                 ..Default::default()
             };
-            for &c in p.candidates.iter().filter(|&&c| !bit(&seen, c)) {
+            for &c in p.candidates.iter().filter(|&&c| !has_bit(&seen, c)) {
                 l.oracle_hidden += 1;
-                if !bit(&kept, c) {
+                if !has_bit(&kept, c) {
                     l.culled += 1;
                 } else if CpuBackend::hidden_per_pixel(scene, cam, &occluders, c) {
                     l.lost_to_boxes += 1;

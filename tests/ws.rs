@@ -6,25 +6,16 @@ mod common;
 use std::time::Duration;
 
 use common::server::{TestServer, street_walk};
-use common::ws::{Tracker, Ws, connect, next_frame, pose_frame, rest_cull};
+use common::ws::{Tracker, Ws, connect, full_frame_len, next_frame, pose_frame, rest_cull};
 use futures_util::{SinkExt, StreamExt};
 use homcull_proto::Pose;
-use homcull_proto::frame::{ErrorCode, Frame, PoseFrame, VisibleFull};
+use homcull_proto::frame::{ErrorCode, Frame, PoseFrame};
 use serde_json::json;
 use tokio_tungstenite::tungstenite::Message;
 
 /// Largest delta/full byte ratio accepted on the 1 m-per-pose walk (measured 0.139 on
 /// lavapipe; protocol version 1 gave 0.187 for the same answers).
 const RATIO_1M: f64 = 0.16;
-
-/// Bytes of a full frame carrying `set` (the stats do not change the size).
-fn full_frame_len(set: &[u32]) -> usize {
-    Frame::Full(VisibleFull {
-        ids: set.to_vec(),
-        ..VisibleFull::default()
-    })
-    .encoded_len()
-}
 
 /// `n` poses along the street of [`street_walk`] (z = 0, eye 1.7 m, the same yaw sway as a
 /// function of the distance walked), `step` metres apart from `x0`: `street_walk(300, _)`

@@ -12,7 +12,7 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::server::TestServer;
-use common::ws::{Tracker, connect, next_frame, pose_frame, rest_cull};
+use common::ws::{Tracker, connect, full_frame_len, next_frame, pose_frame, rest_cull};
 use futures_util::SinkExt;
 use homcull_proto::Pose;
 
@@ -51,12 +51,7 @@ async fn walk(srv: &TestServer, query: &str, poses: &[Pose]) -> Walk {
         ws.send(pose_frame(seq, pose, false)).await.unwrap();
         assert_eq!(t.apply(&next_frame(&mut ws).await), seq);
         if i > 0 {
-            full_equivalent +=
-                homcull_proto::frame::Frame::Full(homcull_proto::frame::VisibleFull {
-                    ids: t.set.clone(),
-                    ..Default::default()
-                })
-                .encoded_len();
+            full_equivalent += full_frame_len(&t.set);
         }
         sets.push(t.set.clone());
     }

@@ -22,6 +22,24 @@ fn slope_text(points: &[(f64, f64)]) -> String {
     loglog_slope(points).map_or("–".into(), |s| format!("{s:.2}"))
 }
 
+/// Each method's log-log slope as "name slope, …", and its points as a plot series.
+fn slopes_and_series(names: &[&str], pts: Vec<Vec<(f64, f64)>>) -> (String, Vec<Series>) {
+    let slopes: Vec<String> = names
+        .iter()
+        .zip(&pts)
+        .map(|(n, p)| format!("{n} {}", slope_text(p)))
+        .collect();
+    let series = names
+        .iter()
+        .zip(pts)
+        .map(|(n, points)| Series {
+            label: n.to_string(),
+            points,
+        })
+        .collect();
+    (slopes.join(", "), series)
+}
+
 /// Time per pose of hom, hzb and the exact oracle on the demo city per viewport.
 pub(super) fn viewport(r: &mut Report) -> Result<()> {
     let p = r.plan.clone();
@@ -80,25 +98,12 @@ pub(super) fn viewport(r: &mut Report) -> Result<()> {
             e.methods["hom-raster"].efficiency
         );
     }
-    let slopes: Vec<String> = names
-        .iter()
-        .zip(&pts)
-        .map(|(n, p)| format!("{n} {}", slope_text(p)))
-        .collect();
+    let (slopes, series) = slopes_and_series(&names, pts);
     let _ = writeln!(
         r.md,
         "\nLog-log slope of time per pose against pixel count (1 = linear in pixels, \
-         0 = independent of resolution): {}.",
-        slopes.join(", ")
+         0 = independent of resolution): {slopes}."
     );
-    let series: Vec<Series> = names
-        .iter()
-        .zip(pts)
-        .map(|(n, points)| Series {
-            label: n.to_string(),
-            points,
-        })
-        .collect();
     r.plot(
         "viewport.png",
         &Chart {
@@ -264,29 +269,16 @@ pub(super) fn objects(r: &mut Report) -> Result<()> {
             refine.false_culls + boxes.false_culls
         );
     }
-    let slopes: Vec<String> = names
-        .iter()
-        .zip(&pts)
-        .map(|(n, p)| format!("{n} {}", slope_text(p)))
-        .collect();
+    let (slopes, series) = slopes_and_series(&names, pts);
     let _ = writeln!(
         r.md,
-        "\nLog-log slope of time per pose against object count: {}.{}",
-        slopes.join(", "),
+        "\nLog-log slope of time per pose against object count: {slopes}.{}",
         if skipped.is_empty() {
             String::new()
         } else {
             format!(" {}.", skipped.join("; "))
         }
     );
-    let series: Vec<Series> = names
-        .iter()
-        .zip(pts)
-        .map(|(n, points)| Series {
-            label: n.to_string(),
-            points,
-        })
-        .collect();
     r.plot(
         "objects.png",
         &Chart {

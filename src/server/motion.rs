@@ -121,10 +121,15 @@ impl HeldSet {
         }
     }
 
+    /// False when the hold time is zero: the cull's set passes through unchanged.
+    pub fn holds(&self) -> bool {
+        !self.hold.is_zero()
+    }
+
     /// Takes the cull's set (ascending) at `now` and returns the set to stream: the cull's
     /// set plus every object it returned within the hold time.
     pub fn update(&mut self, now: Instant, visible: Vec<u32>) -> Vec<u32> {
-        if self.hold.is_zero() {
+        if !self.holds() {
             return visible;
         }
         // Objects that just left the cull's set were last seen by the previous cull.

@@ -330,6 +330,9 @@ fn smoothed(
 ) -> PoseResult {
     let mut it = results.into_iter();
     let mut r = it.next().expect("one result per pose");
+    if it.len() == 0 && !held.holds() {
+        return r;
+    }
     let culled = r.visible.clone();
     for other in it {
         r.visible = union(&r.visible, &other.visible);

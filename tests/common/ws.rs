@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use futures_util::StreamExt;
-use homcull_proto::frame::{Frame, PoseFrame, apply_delta};
+use homcull_proto::frame::{Frame, PoseFrame, VisibleFull, apply_delta};
 use homcull_proto::{CullResponse, Pose};
 use serde_json::json;
 use tokio_tungstenite::tungstenite::Message;
@@ -101,4 +101,13 @@ pub async fn rest_cull(http: &reqwest::Client, srv: &TestServer, pose: &Pose) ->
         .await
         .unwrap();
     r.visible
+}
+
+/// Bytes of a full frame carrying `set` (the stats do not change the size).
+pub fn full_frame_len(set: &[u32]) -> usize {
+    Frame::Full(VisibleFull {
+        ids: set.to_vec(),
+        ..VisibleFull::default()
+    })
+    .encoded_len()
 }
