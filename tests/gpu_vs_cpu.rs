@@ -120,6 +120,59 @@ fn raster_pyramid_and_test_match_cpu() {
 }
 
 #[test]
+fn pyramid_matches_cpu_at_odd_viewports() {
+    let Some(gpu) = common::gpu() else { return };
+    let prep = PreparedScene::new(demo_city(), OccluderParams::default());
+    let mut backend = GpuBackend::new(gpu, &prep);
+    let s = settings(&prep, Method::Hom, DebVariant::Raster, false);
+    for (w, h) in [(1, 1), (2, 1), (33, 17), (257, 129), (131, 301)] {
+        let plans: Vec<_> = demo_cams(w, h).iter().map(|c| plan(&prep, c, &s)).collect();
+        let (g_opacity, g_depth) = backend.pyramids(&plans, &s).unwrap();
+        let layout = LevelLayout::new(w, h);
+        let stride = layout.total as usize;
+        let n0 = (w * h) as usize;
+        for k in 0..plans.len() {
+            let go = &g_opacity[k * stride..(k + 1) * stride];
+            let gd = &g_depth[k * stride..(k + 1) * stride];
+            let (co, cd) = pyramid::build(&layout, &gd[..n0]);
+            assert_eq!(co, go, "{w}x{h} pose {k}: opacity pyramid differs");
+            assert_eq!(cd, gd, "{w}x{h} pose {k}: depth pyramid differs");
+        }
+        assert!(
+            g_opacity.iter().any(|&o| o > 0.0) || n0 < 4,
+            "{w}x{h}: nothing covered"
+        );
+    }
+}
+
+#[test]
+fn refinement_paths_agree() {
+    // Early depth tests against the occluders' depth buffer, and the fallback's
+    // comparison with the occlusion map: both conservative (property test), and they
+    // differ only on depth near-ties.
+    let (Some(gpu), Some(fallback)) = (common::gpu(), common::gpu_without_early_z()) else {
+        return;
+    };
+    let prep = PreparedScene::new(demo_city(), OccluderParams::default());
+    let s = settings(&prep, Method::Hom, DebVariant::Raster, true);
+    let cams = demo_cams(320, 180);
+    let a = GpuBackend::new(gpu, &prep).cull(&prep, &cams, &s).unwrap();
+    let b = GpuBackend::new(fallback, &prep)
+        .cull(&prep, &cams, &s)
+        .unwrap();
+    for (k, (a, b)) in a.iter().zip(&b).enumerate() {
+        let differ = a.visible.iter().filter(|i| !b.visible.contains(i)).count()
+            + b.visible.iter().filter(|i| !a.visible.contains(i)).count();
+        assert!(
+            differ * 50 <= b.visible.len().max(50),
+            "pose {k}: the refinement paths differ on {differ} of {} objects",
+            b.visible.len()
+        );
+        assert!(!a.visible.is_empty());
+    }
+}
+
+#[test]
 fn exact_oracle_matches_cpu() {
     let Some(gpu) = common::gpu() else { return };
     let prep = PreparedScene::new(demo_city(), OccluderParams::default());
@@ -207,6 +260,12 @@ proptest! {
         let cam = look_at(eye, target, 160, 90);
         let mut backend = GpuBackend::new(gpu, &prep);
         let exact = backend.cull(&prep, std::slice::from_ref(&cam), &settings(&prep, Method::Exact, DebVariant::Raster, false)).unwrap();
+        // The refinement's path on adapters without forced early depth tests.
+        let mut fallback = GpuBackend::new(common::gpu_without_early_z().expect("a GPU"), &prep);
+        let r = fallback.cull(&prep, std::slice::from_ref(&cam), &settings(&prep, Method::Hom, DebVariant::Raster, true)).unwrap();
+        for id in &exact[0].visible {
+            prop_assert!(r[0].visible.contains(id), "refinement without early depth tests culled {} which the oracle sees", id);
+        }
         for (method, deb) in [(Method::Hom, DebVariant::Raster), (Method::Hom, DebVariant::Tiles), (Method::Hom, DebVariant::Plane), (Method::Hzb, DebVariant::Raster)] {
             for refine in [false, true] {
                 let r = backend.cull(&prep, std::slice::from_ref(&cam), &settings(&prep, method, deb, refine)).unwrap();

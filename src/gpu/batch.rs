@@ -12,7 +12,7 @@ use homcull_proto::Method;
 use wgpu::util::DeviceExt;
 
 use super::oracle::OraclePass;
-use super::pyramid::{LevelParams, PyramidPass};
+use super::pyramid::PyramidPass;
 use super::raster::{
     DEPTH_FORMAT, DrawList, ID_FORMAT, OCCLUSION_FORMAT, RasterKind, RasterPass, indirect_draws,
 };
@@ -38,7 +38,8 @@ struct SlotTargets {
     layout: LevelLayout,
     occlusion: wgpu::Texture,
     ids: wgpu::Texture,
-    depth_view: wgpu::TextureView,
+    /// Per slot: the occluders' depth, kept for the refinement (the oracle reuses it).
+    depth_layers: Vec<wgpu::TextureView>,
     occlusion_layers: Vec<wgpu::TextureView>,
     id_layers: Vec<wgpu::TextureView>,
     opacity: wgpu::Buffer,
@@ -48,7 +49,7 @@ struct SlotTargets {
 impl SlotTargets {
     fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
         let layout = LevelLayout::new(width, height);
-        let per_slot = (width as u64 * height as u64) * 8 + layout.total as u64 * 8;
+        let per_slot = (width as u64 * height as u64) * 12 + layout.total as u64 * 8;
         let slots = (SLOT_MEMORY_BUDGET / per_slot).clamp(1, MAX_SLOTS as u64) as u32;
         let tex = |label, format| {
             device.create_texture(&wgpu::TextureDescriptor {
@@ -69,20 +70,7 @@ impl SlotTargets {
         };
         let occlusion = tex("occlusion raster", OCCLUSION_FORMAT);
         let ids = tex("oracle ids", ID_FORMAT);
-        let depth = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("depth"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: DEPTH_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        });
+        let depth = tex("depth", DEPTH_FORMAT);
         let layers = |t: &wgpu::Texture| -> Vec<wgpu::TextureView> {
             (0..slots)
                 .map(|l| {
@@ -109,7 +97,7 @@ impl SlotTargets {
             slots,
             occlusion_layers: layers(&occlusion),
             id_layers: layers(&ids),
-            depth_view: depth.create_view(&Default::default()),
+            depth_layers: layers(&depth),
             opacity: buf("pyramid opacity"),
             pyramid_depth: buf("pyramid depth"),
             layout,
@@ -388,6 +376,7 @@ impl GpuBackend {
         if let RefineDraws::Indirect { filter_bg, .. } = &r.draws {
             pass.record_filter(encoder, filter_bg, g as u32, r.group_draws[g]);
         }
+        let first = range.start;
         for p in range {
             let draws = match &r.draws {
                 RefineDraws::Indirect { buffer, ranges, .. } => {
@@ -398,7 +387,7 @@ impl GpuBackend {
             };
             pass.record_raster(
                 encoder,
-                &t.depth_view,
+                &t.depth_layers[(p - first) as usize],
                 pose_bg,
                 &r.raster_bg,
                 p,
@@ -471,7 +460,18 @@ impl GpuBackend {
         self.record_with(guard.as_ref().expect("targets exist"), plans, s)?;
         let t = guard.as_ref().expect("targets exist after a batch");
         let size = t.layout.total as u64 * plans.len() as u64 * 4;
-        let enc = self.ctx.device.create_command_encoder(&Default::default());
+        let device = &self.ctx.device;
+        let pyramid = &self.passes.pyramid;
+        let occlusion_view = SlotTargets::array_view(&t.occlusion);
+        let bg = pyramid.bind_group(
+            device,
+            &t.layout,
+            &t.opacity,
+            &t.pyramid_depth,
+            &occlusion_view,
+        );
+        let mut enc = device.create_command_encoder(&Default::default());
+        pyramid.record_level0(&mut enc, &bg, &t.layout, plans.len() as u32);
         let opacity = self.read_buffer(enc, &t.opacity, size)?;
         let enc = self.ctx.device.create_command_encoder(&Default::default());
         let depth = self.read_buffer(enc, &t.pyramid_depth, size)?;
@@ -618,7 +618,7 @@ impl GpuBackend {
                         &mut encoder,
                         RasterKind::ObjectIds,
                         &t.id_layers[(p - a) as usize],
-                        &t.depth_view,
+                        &t.depth_layers[(p - a) as usize],
                         &pose_bg,
                         p,
                         &self.scene,
@@ -630,38 +630,14 @@ impl GpuBackend {
                     .record(&mut encoder, &bg, g as u32, w, h, b - a);
             }
         } else {
-            let level_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("level params"),
-                contents: &slotted(&LevelParams::for_layout(&t.layout)),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
             let occlusion_view = SlotTargets::array_view(&t.occlusion);
-            let pyr_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("pyramid"),
-                layout: &self.passes.pyramid.layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                            buffer: &level_params,
-                            offset: 0,
-                            size: wgpu::BufferSize::new(std::mem::size_of::<LevelParams>() as u64),
-                        }),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: t.opacity.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: t.pyramid_depth.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: wgpu::BindingResource::TextureView(&occlusion_view),
-                    },
-                ],
-            });
+            let pyr_bg = self.passes.pyramid.bind_group(
+                device,
+                &t.layout,
+                &t.opacity,
+                &t.pyramid_depth,
+                &occlusion_view,
+            );
             let deb0 = &plans[0].deb;
             let cfg = TestConfig::new(
                 s.options.method,
@@ -724,6 +700,10 @@ impl GpuBackend {
                         binding: 8,
                         resource: mask.as_entire_binding(),
                     },
+                    wgpu::BindGroupEntry {
+                        binding: 9,
+                        resource: wgpu::BindingResource::TextureView(&occlusion_view),
+                    },
                 ],
             });
             let refine = s
@@ -735,7 +715,7 @@ impl GpuBackend {
                         &mut encoder,
                         RasterKind::OccluderDepth,
                         &t.occlusion_layers[(p - a) as usize],
-                        &t.depth_view,
+                        &t.depth_layers[(p - a) as usize],
                         &pose_bg,
                         p,
                         &self.scene,

@@ -38,6 +38,25 @@ pub enum GpuError {
     Readback(String),
 }
 
+/// Optional adapter features homcull uses where the adapter has them. Turning one
+/// off exercises the path that adapters without it take (tests do).
+#[derive(Debug, Clone, Copy)]
+pub struct GpuOptions {
+    /// See [`GpuContext::indirect_draws`]; env `HOMCULL_NO_INDIRECT` turns it off.
+    pub indirect_draws: bool,
+    /// See [`GpuContext::early_depth_test`]; env `HOMCULL_NO_EARLY_Z` turns it off.
+    pub early_depth_test: bool,
+}
+
+impl GpuOptions {
+    pub fn from_env() -> Self {
+        GpuOptions {
+            indirect_draws: std::env::var_os("HOMCULL_NO_INDIRECT").is_none(),
+            early_depth_test: std::env::var_os("HOMCULL_NO_EARLY_Z").is_none(),
+        }
+    }
+}
+
 /// The wgpu device and queue homcull renders with.
 pub struct GpuContext {
     pub device: wgpu::Device,
@@ -47,6 +66,11 @@ pub struct GpuContext {
     /// indirect execution and a non-zero first instance in indirect draws); without
     /// it, one draw call per object.
     pub indirect_draws: bool,
+    /// The refinement tests its fragments against the occluders' own depth buffer
+    /// before its fragment shader runs (`@early_depth_test(force)`, feature
+    /// `SHADER_EARLY_DEPTH_TEST`); without it, the shader compares with the occlusion
+    /// map (`crate::gpu::refine`).
+    pub early_depth_test: bool,
     /// Pipelines and targets every scene's backend shares (built on first use).
     pub(crate) shared_passes: std::sync::OnceLock<Arc<batch::SharedPasses>>,
 }
@@ -55,6 +79,11 @@ impl GpuContext {
     /// Opens the adapter chosen by `WGPU_ADAPTER_NAME` / `WGPU_BACKEND` /
     /// `WGPU_POWER_PREF`, or the default one.
     pub fn new() -> Result<Self, GpuError> {
+        Self::with_options(GpuOptions::from_env())
+    }
+
+    /// [`GpuContext::new`] using only the optional features `options` allows.
+    pub fn with_options(options: GpuOptions) -> Result<Self, GpuError> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         if std::env::var_os("WGPU_BACKEND").is_none() {
             // Vulkan/Metal/DX12 only: GL lacks what the passes need and its probe is noisy.
@@ -80,12 +109,18 @@ impl GpuContext {
                 .get_downlevel_capabilities()
                 .flags
                 .contains(wgpu::DownlevelFlags::INDIRECT_EXECUTION)
-            && std::env::var_os("HOMCULL_NO_INDIRECT").is_none();
-        let required_features = if indirect_draws {
-            wgpu::Features::INDIRECT_FIRST_INSTANCE
-        } else {
-            wgpu::Features::empty()
-        };
+            && options.indirect_draws;
+        let early_depth_test = options.early_depth_test
+            && adapter
+                .features()
+                .contains(wgpu::Features::SHADER_EARLY_DEPTH_TEST);
+        let mut required_features = wgpu::Features::empty();
+        if indirect_draws {
+            required_features |= wgpu::Features::INDIRECT_FIRST_INSTANCE;
+        }
+        if early_depth_test {
+            required_features |= wgpu::Features::SHADER_EARLY_DEPTH_TEST;
+        }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("homcull"),
             required_limits: limits,
@@ -98,6 +133,7 @@ impl GpuContext {
             queue,
             info,
             indirect_draws,
+            early_depth_test,
             shared_passes: Default::default(),
         })
     }

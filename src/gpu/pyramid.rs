@@ -1,54 +1,52 @@
-//! Occlusion pyramid pass: level 0 from the occluder raster, then one 2×2 reduction
-//! dispatch per level, for every pose slot of a group at once (z = slot).
+//! Occlusion pyramid pass: two levels per dispatch (`pyramid.wgsl`), every pose slot
+//! of a group at once (z = slot), so a 960×540 pyramid of 11 levels takes five
+//! dispatches. Level 0 stays in the raster texture, which the test pass reads; its
+//! place in the buffers is filled only for readback ([`PyramidPass::record_level0`]).
 //! CPU twin: `hom/pyramid.rs`; layout shared through [`LevelLayout`].
 
-use super::{GpuContext, UNIFORM_SLOT, storage_entry, texture_array_entry, uniform_entry};
-use crate::hom::pyramid::LevelLayout;
+use wgpu::util::DeviceExt;
 
-/// Per-level parameters (`LevelParams` in `pyramid.wgsl`).
+use super::{GpuContext, UNIFORM_SLOT, slotted, storage_entry, texture_array_entry, uniform_entry};
+use crate::hom::{MAX_LEVELS, pyramid::LevelLayout};
+
+/// Levels one dispatch writes after the one it reads.
+const LEVELS_PER_STEP: usize = 2;
+/// Workgroup side (8 × 8 invocations).
+const WG: u32 = 8;
+
+/// `Step` in `pyramid.wgsl`: the level a dispatch reads.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct LevelParams {
-    pub src_offset: u32,
-    pub dst_offset: u32,
-    pub src_w: u32,
-    pub src_h: u32,
-    pub dst_w: u32,
-    pub dst_h: u32,
-    pub slot_stride: u32,
-    pub _pad: u32,
+struct Step {
+    src_level: u32,
+    _pad: [u32; 3],
 }
 
-impl LevelParams {
-    /// Parameters of every level; entry 0 is the level-0 fill.
-    pub fn for_layout(layout: &LevelLayout) -> Vec<LevelParams> {
-        (0..layout.levels())
-            .map(|l| {
-                let (dst_w, dst_h) = layout.dims[l];
-                let (src_w, src_h) = if l == 0 {
-                    (dst_w, dst_h)
-                } else {
-                    layout.dims[l - 1]
-                };
-                LevelParams {
-                    src_offset: if l == 0 { 0 } else { layout.offsets[l - 1] },
-                    dst_offset: layout.offsets[l],
-                    src_w,
-                    src_h,
-                    dst_w,
-                    dst_h,
-                    slot_stride: layout.total,
-                    _pad: 0,
-                }
-            })
-            .collect()
-    }
+/// `Levels` in `pyramid.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Levels {
+    count: u32,
+    slot_stride: u32,
+    _pad: [u32; 2],
+    dims: [[u32; 4]; MAX_LEVELS],
+}
+
+/// The levels each dispatch reads: 0, 2, 4, … while a level follows.
+fn steps(layout: &LevelLayout) -> Vec<Step> {
+    (0..layout.levels() - 1)
+        .step_by(LEVELS_PER_STEP)
+        .map(|l| Step {
+            src_level: l as u32,
+            _pad: [0; 3],
+        })
+        .collect()
 }
 
 pub struct PyramidPass {
-    pub layout: wgpu::BindGroupLayout,
-    level0: wgpu::ComputePipeline,
-    reduce: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    downsample: wgpu::ComputePipeline,
+    export_level0: wgpu::ComputePipeline,
 }
 
 impl PyramidPass {
@@ -61,18 +59,79 @@ impl PyramidPass {
                 storage_entry(1, false),
                 storage_entry(2, false),
                 texture_array_entry(3, wgpu::TextureSampleType::Float { filterable: false }),
+                uniform_entry(4, false, wgpu::ShaderStages::COMPUTE),
             ],
         );
-        let pipeline = |entry| ctx.compute_pipeline(&pl, &module, entry);
         PyramidPass {
-            level0: pipeline("level0"),
-            reduce: pipeline("reduce"),
+            downsample: ctx.compute_pipeline(&pl, &module, "downsample"),
+            export_level0: ctx.compute_pipeline(&pl, &module, "export_level0"),
             layout,
         }
     }
 
-    /// Records level 0 and every reduction for `slots` poses. `bind_group` binds the
-    /// level-parameter slots, the pyramid buffers and the raster texture array.
+    /// The bind group of the pyramid of `layout` in `opacity` and `depth`
+    /// (slot-strided), built from the raster texture array `raster`.
+    pub fn bind_group(
+        &self,
+        device: &wgpu::Device,
+        layout: &LevelLayout,
+        opacity: &wgpu::Buffer,
+        depth: &wgpu::Buffer,
+        raster: &wgpu::TextureView,
+    ) -> wgpu::BindGroup {
+        let mut dims = [[0; 4]; MAX_LEVELS];
+        for (l, d) in dims.iter_mut().enumerate().take(layout.levels()) {
+            *d = [layout.dims[l].0, layout.dims[l].1, layout.offsets[l], 0];
+        }
+        let levels = Levels {
+            count: layout.levels() as u32,
+            slot_stride: layout.total,
+            _pad: [0; 2],
+            dims,
+        };
+        let uniform = |label, contents: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+        };
+        let steps = uniform("pyramid steps", &slotted(&steps(layout)));
+        let levels = uniform("pyramid levels", bytemuck::bytes_of(&levels));
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pyramid"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &steps,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(std::mem::size_of::<Step>() as u64),
+                    }),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: opacity.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: depth.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::TextureView(raster),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: levels.as_entire_binding(),
+                },
+            ],
+        })
+    }
+
+    /// Records every level for `slots` poses with a bind group from
+    /// [`PyramidPass::bind_group`] for the same `layout`.
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -80,15 +139,36 @@ impl PyramidPass {
         layout: &LevelLayout,
         slots: u32,
     ) {
-        for l in 0..layout.levels() {
-            let (w, h) = layout.dims[l];
+        for (k, step) in steps(layout).iter().enumerate() {
+            // One invocation per 2×2 texels of the first level written.
+            let (w, h) = layout.dims[step.src_level as usize + 1];
+            let (w, h) = (w.div_ceil(2), h.div_ceil(2));
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("pyramid level"),
+                label: Some("pyramid levels"),
                 timestamp_writes: None,
             });
-            pass.set_pipeline(if l == 0 { &self.level0 } else { &self.reduce });
-            pass.set_bind_group(0, bind_group, &[(l as u64 * UNIFORM_SLOT) as u32]);
-            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), slots);
+            pass.set_pipeline(&self.downsample);
+            pass.set_bind_group(0, bind_group, &[(k as u64 * UNIFORM_SLOT) as u32]);
+            pass.dispatch_workgroups(w.div_ceil(WG), h.div_ceil(WG), slots);
         }
+    }
+
+    /// Records the copy of level 0 from the raster into the pyramid buffers, which
+    /// only a readback of the whole pyramid needs.
+    pub fn record_level0(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        bind_group: &wgpu::BindGroup,
+        layout: &LevelLayout,
+        slots: u32,
+    ) {
+        let (w, h) = layout.dims[0];
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("pyramid level 0"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.export_level0);
+        pass.set_bind_group(0, bind_group, &[0]);
+        pass.dispatch_workgroups(w.div_ceil(WG), h.div_ceil(WG), slots);
     }
 }

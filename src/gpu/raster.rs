@@ -42,7 +42,16 @@ const VERTEX_BUFFERS: [Option<wgpu::VertexBufferLayout<'static>>; 1] =
 impl RasterPass {
     pub fn new(ctx: &GpuContext) -> Self {
         let device = &ctx.device;
-        let module = ctx.shader("raster", include_str!("shaders/raster.wgsl"));
+        // The early-depth entry point validates only where the feature is enabled.
+        let source = if ctx.early_depth_test {
+            concat!(
+                include_str!("shaders/raster.wgsl"),
+                include_str!("shaders/refine_early.wgsl")
+            )
+        } else {
+            include_str!("shaders/raster.wgsl")
+        };
+        let module = ctx.shader("raster", source);
         let pose_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("pose"),
             entries: &[uniform_entry(0, true, wgpu::ShaderStages::VERTEX)],
@@ -60,7 +69,7 @@ impl RasterPass {
                 &module,
                 fs,
                 &[Some(format.into())],
-                Some(wgpu::CompareFunction::Greater),
+                DepthTest::KeepNearest,
             )
         };
         RasterPass {
@@ -90,7 +99,8 @@ impl RasterPass {
         }
     }
 
-    /// Records one pose's raster into `target` (one array layer).
+    /// Records one pose's raster into `target` (one array layer) and `depth` (the
+    /// occluders' depth is kept for the refinement; the oracle's is discarded).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -127,7 +137,10 @@ impl RasterPass {
                 view: depth,
                 depth_ops: Some(wgpu::Operations {
                     load: wgpu::LoadOp::Clear(0.0),
-                    store: wgpu::StoreOp::Discard,
+                    store: match kind {
+                        RasterKind::OccluderDepth => wgpu::StoreOp::Store,
+                        RasterKind::ObjectIds => wgpu::StoreOp::Discard,
+                    },
                 }),
                 stencil_ops: None,
             }),
@@ -144,18 +157,33 @@ impl RasterPass {
     }
 }
 
+/// How a raster pipeline uses the depth buffer (reversed Z: larger is nearer).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DepthTest {
+    /// Keep the nearest fragment per pixel (occluder and oracle rasters).
+    KeepNearest,
+    /// Pass fragments at or in front of what the buffer holds; write nothing.
+    NotBehind,
+    /// Every fragment runs; nothing is written.
+    Off,
+}
+
 /// A pipeline drawing scene triangles with `raster.wgsl`'s vertex stage (`@invariant`
-/// position, shared by every raster pass so their coverage is identical) and the
-/// fragment entry `fs`. With `depth_test` the depth buffer keeps the nearest fragment;
-/// without it every fragment runs and nothing is written.
+/// position, shared by every raster pass so their coverage and depth are identical)
+/// and the fragment entry `fs`.
 pub fn triangle_pipeline(
     device: &wgpu::Device,
     layout: &wgpu::PipelineLayout,
     module: &wgpu::ShaderModule,
     fs: &str,
     targets: &[Option<wgpu::ColorTargetState>],
-    depth_test: Option<wgpu::CompareFunction>,
+    depth_test: DepthTest,
 ) -> wgpu::RenderPipeline {
+    let (compare, write) = match depth_test {
+        DepthTest::KeepNearest => (wgpu::CompareFunction::Greater, true),
+        DepthTest::NotBehind => (wgpu::CompareFunction::GreaterEqual, false),
+        DepthTest::Off => (wgpu::CompareFunction::Always, false),
+    };
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(fs),
         layout: Some(layout),
@@ -167,8 +195,8 @@ pub fn triangle_pipeline(
         },
         depth_stencil: Some(wgpu::DepthStencilState {
             format: DEPTH_FORMAT,
-            depth_write_enabled: Some(depth_test.is_some()),
-            depth_compare: Some(depth_test.unwrap_or(wgpu::CompareFunction::Always)),
+            depth_write_enabled: Some(write),
+            depth_compare: Some(compare),
             stencil: Default::default(),
             bias: Default::default(),
         }),

@@ -6,11 +6,18 @@
 //! Two steps per group of poses, after the test pass:
 //! 1. `filter_draws` (compute, `refine.wgsl`) sets each indirect draw's instance count
 //!    to 0 or 1 from the box test's bit, so only survivors are drawn;
-//! 2. one render pass per pose with `fs_refine` (`raster.wgsl`, the occluder raster's
-//!    own vertex stage, so coverage matches the occlusion map and the oracle), no colour
-//!    target, writing a second bitmask. CPU twin: `CpuBackend::refine`.
+//! 2. one render pass per pose with the occluder raster's own vertex stage (so coverage
+//!    and depth match the occluder raster and the oracle), no colour target, writing a
+//!    second bitmask. Where the adapter can force early depth tests (Vulkan, GL), the
+//!    pass tests against the pose's occluder depth buffer (`fs_refine_early`,
+//!    `GreaterEqual`, no writes): fragments behind the occluders never reach the
+//!    shader, and a pixel the oracle gives to an object always passes, since the oracle
+//!    keeps the nearest of a superset of the same fragments. Elsewhere every fragment
+//!    runs `fs_refine`, which compares with the occlusion map and the box test's depth
+//!    margin. CPU twin: `CpuBackend::refine` (the margin variant; both are
+//!    conservative, and they differ only on depth near-ties).
 
-use super::raster::{DrawList, RasterPass, triangle_pipeline};
+use super::raster::{DepthTest, DrawList, RasterPass, triangle_pipeline};
 use super::scene_buffers::SceneBuffers;
 use super::{GpuContext, UNIFORM_SLOT, record_wide, storage_entry, uniform_entry};
 
@@ -81,9 +88,14 @@ impl RefinePass {
             bind_group_layouts: &[Some(&raster.pose_layout), Some(&raster_layout)],
             immediate_size: 0,
         });
-        // No depth test: every fragment runs, and visibility is decided against the
-        // occlusion map, not against the other refined objects.
-        let pipeline = triangle_pipeline(device, &layout, &raster.module, "fs_refine", &[], None);
+        // Tested against the occluders' depth only, never against the other refined
+        // objects (no depth writes).
+        let (fs, depth) = if ctx.early_depth_test {
+            ("fs_refine_early", DepthTest::NotBehind)
+        } else {
+            ("fs_refine", DepthTest::Off)
+        };
+        let pipeline = triangle_pipeline(device, &layout, &raster.module, fs, &[], depth);
         RefinePass {
             filter_layout,
             filter,
@@ -111,7 +123,8 @@ impl RefinePass {
         );
     }
 
-    /// Records one pose's refinement raster (`refine` bound with its params slot `pose`).
+    /// Records one pose's refinement raster (`refine` bound with its params slot `pose`)
+    /// on `depth`, the pose's occluder depth layer.
     #[allow(clippy::too_many_arguments)]
     pub fn record_raster(
         &self,
@@ -126,8 +139,7 @@ impl RefinePass {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("refine raster"),
             color_attachments: &[],
-            // The depth test always passes: what the buffer holds does not matter, so it
-            // is neither cleared nor stored.
+            // The occluder depth is read, not written, and not needed afterwards.
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: depth,
                 depth_ops: Some(wgpu::Operations {

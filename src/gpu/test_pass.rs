@@ -3,7 +3,7 @@
 
 use homcull_proto::{DebVariant, Method};
 
-use super::{GpuContext, record_wide, storage_entry, uniform_entry};
+use super::{GpuContext, record_wide, storage_entry, texture_array_entry, uniform_entry};
 use crate::hom::{MAX_LEVELS, pyramid::LevelLayout};
 
 /// `TestConfig` in `test.wgsl`: what is the same for every pose of a batch.
@@ -86,7 +86,10 @@ impl TestPass {
         ]
         .into_iter()
         .chain((2..=7).map(|b| storage_entry(b, true)))
-        .chain([storage_entry(8, false)])
+        .chain([
+            storage_entry(8, false),
+            texture_array_entry(9, wgpu::TextureSampleType::Float { filterable: false }),
+        ])
         .collect();
         let (layout, pl) = ctx.compute_layout("test", &entries);
         let pipeline = ctx.compute_pipeline(&pl, &module, "main");

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
-use homcull::gpu::{GpuContext, require_gpu};
+use homcull::gpu::{GpuContext, GpuOptions, require_gpu};
 
 /// The test GPU. Without an adapter the test is skipped with a message, unless
 /// `HOMCULL_REQUIRE_GPU=1`, which makes it a failure.
@@ -22,6 +22,23 @@ pub fn gpu() -> Option<Arc<GpuContext>> {
             );
             None
         }
+    })
+    .clone()
+}
+
+/// A second test GPU context that takes the path of adapters without forced early
+/// depth tests (`GpuOptions::early_depth_test` off), for the refinement's fallback.
+pub fn gpu_without_early_z() -> Option<Arc<GpuContext>> {
+    static GPU: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
+    GPU.get_or_init(|| {
+        gpu()?;
+        let options = GpuOptions {
+            early_depth_test: false,
+            ..GpuOptions::from_env()
+        };
+        let ctx = GpuContext::with_options(options).expect("the test adapter opens twice");
+        assert!(!ctx.early_depth_test);
+        Some(Arc::new(ctx))
     })
     .clone()
 }

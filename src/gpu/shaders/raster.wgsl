@@ -31,9 +31,13 @@ fn fs_id(in: VsOut) -> @location(0) u32 {
 }
 
 // Refinement of HOM's box test: the objects that passed it are drawn once more, and a
-// fragment that is not behind the occluders (the pose's occlusion-map layer, with the
-// test's depth margin) marks its object visible. An object none of whose pixels does
-// that is hidden although its box is not. CPU twin: `CpuBackend::refine`.
+// fragment that is not behind the occluders marks its object visible. An object none
+// of whose pixels does that is hidden although its box is not. Two ways to decide
+// "not behind" (`crate::gpu::refine`): `fs_refine_early` (refine_early.wgsl, where the
+// adapter can force early depth tests) lets the fixed-function test against the
+// occluders' own depth buffer decide before the shader runs; `fs_refine` here compares
+// with the pose's occlusion-map layer, with the box test's depth margin.
+// CPU twin: `CpuBackend::refine`.
 
 struct RefineParams {
     slot: u32,           // the pose's layer of the occlusion map
@@ -47,18 +51,23 @@ struct RefineParams {
 @group(1) @binding(2) var<storage, read_write> refined: array<atomic<u32>>;
 @group(1) @binding(3) var<uniform> rp: RefineParams;
 
-@fragment
-fn fs_refine(in: VsOut) {
-    let w = rp.pose * rp.words_per_pose + in.id / 32u;
-    let bit = 1u << (in.id % 32u);
+// Sets object `id`'s bit in the refined mask if the box test kept it.
+fn mark_visible(id: u32) {
+    let w = rp.pose * rp.words_per_pose + id / 32u;
+    let bit = 1u << (id % 32u);
     // Only objects the box test kept (the draws of the others are filtered out where
     // indirect draws exist; this keeps the direct-draw path right too).
     if (box_mask[w] & bit) == 0u || (atomicLoad(&refined[w]) & bit) != 0u {
         return;
     }
+    atomicOr(&refined[w], bit);
+}
+
+@fragment
+fn fs_refine(in: VsOut) {
     let occ = textureLoad(occlusion, vec2<u32>(in.clip.xy), rp.slot, 0).r;
     if occ > 0.0 && in_front(occ, in.depth) {
         return;
     }
-    atomicOr(&refined[w], bit);
+    mark_visible(in.id);
 }

@@ -45,9 +45,17 @@ struct TestBox {
 @group(0) @binding(6) var<storage, read> opacity: array<f32>;
 @group(0) @binding(7) var<storage, read> depth: array<f32>;
 @group(0) @binding(8) var<storage, read_write> mask: array<atomic<u32>>;
+// Level 0 is the occluder raster itself (the pyramid buffers start at level 1).
+@group(0) @binding(9) var raster: texture_2d_array<f32>;
 
-fn texel(slot: u32, l: u32, x: u32, y: u32) -> u32 {
-    return slot * cfg.slot_stride + cfg.dims[l].z + y * cfg.dims[l].x + x;
+// Texel (x, y) of level l as (opacity, depth).
+fn texel(slot: u32, l: u32, x: u32, y: u32) -> vec2<f32> {
+    if l == 0u {
+        let d = textureLoad(raster, vec2<u32>(x, y), slot, 0).r;
+        return vec2<f32>(select(0.0, 1.0, d > 0.0), d);
+    }
+    let i = slot * cfg.slot_stride + cfg.dims[l].z + y * cfg.dims[l].x + x;
+    return vec2<f32>(opacity[i], depth[i]);
 }
 
 fn start_level(r: ScreenRect) -> u32 {
@@ -73,7 +81,7 @@ fn hom_occluded(r: ScreenRect, slot: u32, pose: u32) -> bool {
     if cfg.deb != DEB_RASTER && !deb_all_in_front(pose, r) {
         return false;
     }
-    let raster = cfg.deb == DEB_RASTER;
+    let raster_deb = cfg.deb == DEB_RASTER;
     let k = start_level(r);
     var stack: array<vec3<u32>, STACK_SIZE>;
     var top = 0u;
@@ -87,9 +95,9 @@ fn hom_occluded(r: ScreenRect, slot: u32, pose: u32) -> bool {
         top--;
         let e = stack[top];
         let l = e.x;
-        let i = texel(slot, l, e.y, e.z);
-        let o = opacity[i];
-        if o >= cfg.thresholds[l].x && (!raster || in_front(depth[i], r.near)) {
+        let t = texel(slot, l, e.y, e.z);
+        let o = t.x;
+        if o >= cfg.thresholds[l].x && (!raster_deb || in_front(t.y, r.near)) {
             continue;
         }
         if l == 0u || o == 0.0 {
@@ -114,8 +122,8 @@ fn hzb_occluded(r: ScreenRect, slot: u32) -> bool {
     let k = start_level(r);
     for (var ty = r.y0 >> k; ty <= (r.y1 - 1u) >> k; ty++) {
         for (var tx = r.x0 >> k; tx <= (r.x1 - 1u) >> k; tx++) {
-            let i = texel(slot, k, tx, ty);
-            let d = select(1e30, depth[i], opacity[i] >= 1.0);
+            let t = texel(slot, k, tx, ty);
+            let d = select(1e30, t.y, t.x >= 1.0);
             if !in_front(d, r.near) {
                 return false;
             }
