@@ -20,17 +20,17 @@ use homcull_proto::DebVariant;
 const POSES: usize = 200;
 
 /// Efficiency floors for `hom` as served (raster DEB, refined, threshold 1.0, default
-/// budget), set under what 200 poses measured on lavapipe (demo 1.000, munich 0.998,
-/// etoile 0.986, oa_shouse 0.978, oa_dm1 0.973, godot_room 1.000, fzk_haus 0.990).
+/// budget), set under what 200 poses measured on lavapipe (demo 1.000, munich 1.000,
+/// etoile 1.000, oa_shouse 0.998, oa_dm1 0.992, godot_room 1.000, fzk_haus 1.000).
 fn floor(scene: &str) -> f64 {
     match scene {
         "demo" => 0.99,
-        "munich" => 0.98,
-        "etoile" => 0.97,
-        "oa_shouse" => 0.96,
-        "oa_dm1" => 0.95,
+        "munich" => 0.99,
+        "etoile" => 0.99,
+        "oa_shouse" => 0.98,
+        "oa_dm1" => 0.98,
         "godot_room" => 0.97,
-        "fzk_haus" => 0.97,
+        "fzk_haus" => 0.98,
         _ => 0.5,
     }
 }

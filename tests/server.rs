@@ -218,6 +218,41 @@ async fn every_route_and_every_error() {
         assert_eq!(&bytes[1..4], b"PNG");
     }
 
+    // The occluders of a pose: distinct qualifying occluders within the budget, all in
+    // the frustum (so among the frustum method's visible set).
+    let occ: Value = http
+        .post(srv.url("/v1/scenes/demo/occluders"))
+        .json(&json!({"pose": pose_json(&poses[0])}))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    let ids: Vec<u32> = serde_json::from_value(occ["occluders"].clone()).expect("occluder ids");
+    assert!(!ids.is_empty(), "a street pose renders occluders");
+    assert!(ids.iter().all(|i| frustum.visible.contains(i)));
+    let distinct: std::collections::BTreeSet<_> = ids.iter().collect();
+    assert_eq!(distinct.len(), ids.len());
+    assert!(occ["triangles"].as_u64().unwrap() <= occ["budget"].as_u64().unwrap());
+    let status = http
+        .post(srv.url("/v1/scenes/nope/occluders"))
+        .json(&json!({"pose": pose_json(&poses[0])}))
+        .send()
+        .await
+        .unwrap()
+        .status();
+    assert_eq!(status, 404);
+    let status = http
+        .post(srv.url("/v1/scenes/demo/occluders"))
+        .header("content-type", "application/json")
+        .body(r#"{"pose": {"position": [0, 1, 0], "viewport": [0, 0]}}"#)
+        .send()
+        .await
+        .unwrap()
+        .status();
+    assert_eq!(status, 400);
+
     // Errors: each gets its JSON error, and the server carries on.
     let cull = srv.url("/v1/scenes/demo/cull");
     let post = |url: String, body: String| {

@@ -62,6 +62,8 @@ use store::Store;
         routes::delete_scene,
         routes::cull,
         routes::cull_batch,
+        routes::occluders,
+        routes::pyramid,
         ws::stream
     ),
     components(schemas(
@@ -109,6 +111,10 @@ pub fn app(state: AppState) -> Router {
         .route(
             "/v1/scenes/{id}/cull/batch",
             post(routes::cull_batch).layer(json_limit),
+        )
+        .route(
+            "/v1/scenes/{id}/occluders",
+            post(routes::occluders).layer(json_limit),
         )
         .route(
             "/v1/scenes/{id}/pyramid",

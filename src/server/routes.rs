@@ -302,6 +302,52 @@ pub async fn cull_batch(
     }))
 }
 
+/// The occluders HOM renders for one pose.
+#[derive(Debug, serde::Serialize, utoipa::ToSchema)]
+pub struct OccluderList {
+    /// Object IDs, nearest first (the order they are selected in).
+    pub occluders: Vec<u32>,
+    /// Their triangles together.
+    pub triangles: u32,
+    /// The server's occluder triangle budget per pose.
+    pub budget: u32,
+}
+
+/// The occluders HOM selects for one pose (in-frustum occluders, nearest first, up to
+/// the triangle budget): what the viewer's debug view paints blue.
+#[utoipa::path(post, path = "/v1/scenes/{id}/occluders", params(("id" = String, Path, description = "scene id")),
+    request_body = CullRequest,
+    responses((status = 200, body = OccluderList),
+        (status = 400, body = homcull_proto::ErrorBody), (status = 404, body = homcull_proto::ErrorBody)))]
+pub async fn occluders(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    body: Result<Bytes, BytesRejection>,
+) -> Result<Json<OccluderList>, ApiError> {
+    let req: CullRequest = ApiError::parse_json(&body.map_err(body_error)?)?;
+    let cam = Camera::new(&req.pose)?;
+    let scene = state.scene(&id)?;
+    let prepared = scene
+        .engine
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .prepared
+        .clone();
+    let budget = state.config.budget;
+    let selection = tokio::task::spawn_blocking(move || {
+        let mut settings = crate::cull::CullSettings::new(req.options, &prepared);
+        settings.budget_triangles = budget;
+        crate::cull::plan(&prepared, &cam, &settings).occluders
+    })
+    .await
+    .map_err(|e| ApiError::internal(format!("occluder selection failed: {e}")))?;
+    Ok(Json(OccluderList {
+        occluders: selection.ids,
+        triangles: selection.triangles,
+        budget,
+    }))
+}
+
 /// The largest viewport the pyramid view renders (it runs the CPU reference).
 const PYRAMID_MAX_PIXELS: u64 = 1920 * 1080;
 

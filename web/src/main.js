@@ -99,7 +99,6 @@ const app = {
   sceneInfo: null,
   objects: [], // object table rows
   triangles: new Uint32Array(0),
-  occluder: new Uint8Array(0),
   meshesById: [],
   groundY: 0,
   mode: "walk",
@@ -122,6 +121,9 @@ const app = {
   fps: 0,
   frameTimes: [],
   debugGroup: null,
+  // Debug view: the occluders the server renders for a recent pose (POST …/occluders).
+  frameOccluders: new Set(),
+  occludersVersion: 0,
   loaded: false,
 };
 
@@ -306,7 +308,6 @@ async function start() {
     const { objects } = await objectsPromise;
     app.objects = objects;
     app.triangles = Uint32Array.from(objects, (o) => o.triangles);
-    app.occluder = Uint8Array.from(objects, (o) => (o.occluder ? 1 : 0));
 
     const { meshesById, warnings } = mapObjects(gltf);
     for (const w of warnings) console.warn(`homcull: ${w}`);
@@ -611,7 +612,7 @@ $("overview-toggle").checked = app.overview;
 /** Sets mesh.visible (and debug materials) from the latest visible set; cheap if unchanged. */
 function applyVisibility() {
   const latest = app.latest;
-  const key = `${app.culling}|${app.debug}`;
+  const key = `${app.culling}|${app.debug}|${app.occludersVersion}`;
   if (app.appliedVersion === app.latestVersion && app.appliedKey === key) return;
   app.appliedVersion = app.latestVersion;
   app.appliedKey = key;
@@ -627,7 +628,11 @@ function applyVisibility() {
     }
     for (const m of meshes) {
       m.visible = visible;
-      m.material = app.debug ? (app.occluder[id] ? debugMaterials.occluder : debugMaterials.drawn) : m.userData.homcullMaterial;
+      m.material = app.debug
+        ? app.frameOccluders.has(id)
+          ? debugMaterials.occluder
+          : debugMaterials.drawn
+        : m.userData.homcullMaterial;
     }
     if (wires) for (const w of wires[id]) w.visible = !(mask && mask[id]);
   });
@@ -701,9 +706,54 @@ function updateHud() {
   setHud("hud-fps", app.fps, (v) => String(v));
   const notes = [];
   if (!app.culling) notes.push("Culling is off: everything is drawn.");
-  if (app.debug) notes.push("Debug view: occluders blue, other drawn objects white, culled objects red wireframe.");
+  if (app.debug)
+    notes.push("Debug view: this pose's occluders blue, other drawn objects white, culled objects red wireframe.");
   const note = notes.join(" ");
   if ($("hud-note").textContent !== note) $("hud-note").textContent = note;
+}
+
+// --- debug view: this pose's occluders ----------------------------------------------
+
+// What the server renders into the occlusion map changes with the pose (in-frustum
+// occluders, nearest first, up to the triangle budget), so the debug view asks for it:
+// at most every 250 ms, for the last pose sent, while the debug view is on.
+const occluderQuery = { busy: false, lastSeq: null, lastAt: 0, unavailable: false };
+
+async function refreshOccluders() {
+  const q = occluderQuery;
+  if (!app.debug || q.busy || q.unavailable || !app.lastPose || !app.sceneId) return;
+  if (q.lastSeq === app.lastPose.seq) return;
+  const now = performance.now();
+  if (now - q.lastAt < 250) return;
+  q.busy = true;
+  q.lastAt = now;
+  const { seq, position, rotation, fov_y_deg, viewport, near, far } = app.lastPose;
+  try {
+    const r = await fetch(`/v1/scenes/${encodeURIComponent(app.sceneId)}/occluders`, {
+      method: "POST",
+      headers: { "content-type": "application/json" },
+      body: JSON.stringify({ pose: { position, rotation, fov_y_deg, viewport, near, far } }),
+    });
+    let body = null;
+    try {
+      body = await r.json();
+    } catch {
+      /* not JSON */
+    }
+    if (r.status === 404 && body?.error?.code !== "unknown_scene") {
+      q.unavailable = true; // an older server: the debug view shows no occluders
+      return;
+    }
+    if (!r.ok) throw new Error(body?.error?.message ?? `HTTP ${r.status}`);
+    app.frameOccluders = new Set(body.occluders ?? []);
+    app.occludersVersion += 1;
+    q.lastSeq = seq;
+    clearError("occluders");
+  } catch (e) {
+    showError("occluders", `occluder request failed: ${e.message}`);
+  } finally {
+    q.busy = false;
+  }
 }
 
 // --- pyramid panel -------------------------------------------------------------------
@@ -835,6 +885,7 @@ function loop(now) {
   app.fps = app.frameTimes.length;
   updateHud();
   if (pyramid.open) refreshPyramid();
+  if (app.debug) refreshOccluders();
   if (!firstFrameDone && app.rendered && app.loaded) {
     firstFrameDone = true;
     resolveReady({ scene: app.sceneId, ack: app.rendered.ack });
@@ -890,6 +941,10 @@ window.homcull = {
   },
   /** The HUD numbers as shown. */
   hud,
+  /** Sorted IDs of the meshes the debug view paints as occluders. */
+  occluderIds() {
+    return [...app.frameOccluders].filter((id) => app.meshesById[id]).sort((a, b) => a - b);
+  },
   setCulling,
   setDebug,
   setOverview,

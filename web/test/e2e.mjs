@@ -355,6 +355,19 @@ async function main() {
   await frames(3);
   const debugSnap = await page.evaluate(() => ({ drawn: window.homcull.drawnIds(), ids: window.homcull.lastFrame.ids }));
   assert.deepEqual(debugSnap.drawn, debugSnap.ids, "the debug view draws the same visible set");
+  // Blue is this pose's occluders, as POST /v1/scenes/{id}/occluders selects them.
+  await page.waitForFunction(() => window.homcull.occluderIds().length > 0, null, { timeout: STEP_TIMEOUT_MS });
+  const blue = await page.evaluate(async () => {
+    const { position, rotation, fov_y_deg, viewport, near, far } = window.homcull.lastPose;
+    const r = await fetch("/v1/scenes/demo/occluders", {
+      method: "POST",
+      headers: { "content-type": "application/json" },
+      body: JSON.stringify({ pose: { position, rotation, fov_y_deg, viewport, near, far } }),
+    });
+    const body = await r.json();
+    return { shown: window.homcull.occluderIds(), server: [...body.occluders].sort((a, b) => a - b) };
+  });
+  assert.deepEqual(blue.shown, blue.server, "the debug view paints this pose's occluders blue");
   await page.screenshot({ path: join(ARTIFACTS, "viewer-debug.png") });
   await page.click("#overview-toggle");
   await frames(3);
