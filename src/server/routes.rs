@@ -324,9 +324,33 @@ pub async fn occluders(
     Path(id): Path<String>,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Json<OccluderList>, ApiError> {
+    let selection = with_pose_plan(&state, &id, body, u64::MAX, |_, p| p.occluders).await?;
+    Ok(Json(OccluderList {
+        occluders: selection.ids,
+        triangles: selection.triangles,
+        budget: state.config.budget,
+    }))
+}
+
+/// Parses a `CullRequest` body, plans its pose on scene `id` as the GPU worker would
+/// (the server's occluder budget) and runs `f` on the plan off the async runtime: the
+/// debug routes' shared part. Viewports over `max_pixels` are refused.
+async fn with_pose_plan<T: Send + 'static>(
+    state: &AppState,
+    id: &str,
+    body: Result<Bytes, BytesRejection>,
+    max_pixels: u64,
+    f: impl FnOnce(&crate::cull::PreparedScene, crate::cull::PosePlan) -> T + Send + 'static,
+) -> Result<T, ApiError> {
     let req: CullRequest = ApiError::parse_json(&body.map_err(body_error)?)?;
     let cam = Camera::new(&req.pose)?;
-    let scene = state.scene(&id)?;
+    if cam.width as u64 * cam.height as u64 > max_pixels {
+        return Err(ApiError::bad_request(
+            "invalid_pose",
+            format!("this view renders at most {max_pixels} pixels"),
+        ));
+    }
+    let scene = state.scene(id)?;
     let prepared = scene
         .engine
         .lock()
@@ -334,18 +358,13 @@ pub async fn occluders(
         .prepared
         .clone();
     let budget = state.config.budget;
-    let selection = tokio::task::spawn_blocking(move || {
+    tokio::task::spawn_blocking(move || {
         let mut settings = crate::cull::CullSettings::new(req.options, &prepared);
         settings.budget_triangles = budget;
-        crate::cull::plan(&prepared, &cam, &settings).occluders
+        f(&prepared, crate::cull::plan(&prepared, &cam, &settings))
     })
     .await
-    .map_err(|e| ApiError::internal(format!("occluder selection failed: {e}")))?;
-    Ok(Json(OccluderList {
-        occluders: selection.ids,
-        triangles: selection.triangles,
-        budget,
-    }))
+    .map_err(|e| ApiError::internal(format!("planning task failed: {e}")))
 }
 
 /// The largest viewport the pyramid view renders (it runs the CPU reference).
@@ -373,28 +392,10 @@ pub async fn pyramid(
     Path(id): Path<String>,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Json<serde_json::Value>, ApiError> {
-    let req: CullRequest = ApiError::parse_json(&body.map_err(body_error)?)?;
-    let cam = Camera::new(&req.pose)?;
-    if cam.width as u64 * cam.height as u64 > PYRAMID_MAX_PIXELS {
-        return Err(ApiError::bad_request(
-            "invalid_pose",
-            format!("the pyramid view renders at most {PYRAMID_MAX_PIXELS} pixels"),
-        ));
-    }
-    let scene = state.scene(&id)?;
-    let prepared = scene
-        .engine
-        .lock()
-        .unwrap_or_else(|p| p.into_inner())
-        .prepared
-        .clone();
-    let budget = state.config.budget;
-    let levels = tokio::task::spawn_blocking(move || {
-        use crate::cull::{CpuBackend, CullSettings, plan};
+    let levels = with_pose_plan(&state, &id, body, PYRAMID_MAX_PIXELS, |prepared, p| {
+        use crate::cull::CpuBackend;
         use crate::hom::pyramid::{self, LevelLayout};
-        let mut settings = CullSettings::new(req.options, &prepared);
-        settings.budget_triangles = budget;
-        let p = plan(&prepared, &cam, &settings);
+        let cam = &p.cam;
         let layout = LevelLayout::new(cam.width, cam.height);
         let (opacity, _depth) =
             pyramid::build(&layout, &CpuBackend::occluder_depth(&prepared.scene, &p));
@@ -415,8 +416,7 @@ pub async fn pyramid(
             })
             .collect::<Vec<_>>()
     })
-    .await
-    .map_err(|e| ApiError::internal(format!("pyramid task failed: {e}")))?;
+    .await?;
     Ok(Json(serde_json::json!({ "levels": levels })))
 }
 

@@ -712,24 +712,24 @@ function updateHud() {
   if ($("hud-note").textContent !== note) $("hud-note").textContent = note;
 }
 
-// --- debug view: this pose's occluders ----------------------------------------------
+// --- per-pose debug queries ------------------------------------------------------------
 
-// What the server renders into the occlusion map changes with the pose (in-frustum
-// occluders, nearest first, up to the triangle budget), so the debug view asks for it:
-// at most every 250 ms, for the last pose sent, while the debug view is on.
-const occluderQuery = { busy: false, lastSeq: null, lastAt: 0, unavailable: false };
-
-async function refreshOccluders() {
-  const q = occluderQuery;
-  if (!app.debug || q.busy || q.unavailable || !app.lastPose || !app.sceneId) return;
+/**
+ * Posts the last pose sent to `POST /v1/scenes/{id}/{path}`: one request at a time,
+ * once per pose, at most every `q.intervalMs`. `onBody(body, seq)` takes the JSON
+ * answer; a 404 other than `unknown_scene` marks the route unavailable (an older
+ * server) and calls `q.onUnavailable`; failures call `q.onError` and show in the page.
+ */
+async function queryPose(q, path, onBody) {
+  if (q.busy || q.unavailable || !app.lastPose || !app.sceneId) return;
   if (q.lastSeq === app.lastPose.seq) return;
   const now = performance.now();
-  if (now - q.lastAt < 250) return;
+  if (now - q.lastAt < q.intervalMs) return;
   q.busy = true;
   q.lastAt = now;
   const { seq, position, rotation, fov_y_deg, viewport, near, far } = app.lastPose;
   try {
-    const r = await fetch(`/v1/scenes/${encodeURIComponent(app.sceneId)}/occluders`, {
+    const r = await fetch(`/v1/scenes/${encodeURIComponent(app.sceneId)}/${path}`, {
       method: "POST",
       headers: { "content-type": "application/json" },
       body: JSON.stringify({ pose: { position, rotation, fov_y_deg, viewport, near, far } }),
@@ -741,24 +741,52 @@ async function refreshOccluders() {
       /* not JSON */
     }
     if (r.status === 404 && body?.error?.code !== "unknown_scene") {
-      q.unavailable = true; // an older server: the debug view shows no occluders
+      q.unavailable = true;
+      q.onUnavailable?.();
       return;
     }
     if (!r.ok) throw new Error(body?.error?.message ?? `HTTP ${r.status}`);
-    app.frameOccluders = new Set(body.occluders ?? []);
-    app.occludersVersion += 1;
+    onBody(body, seq);
     q.lastSeq = seq;
-    clearError("occluders");
+    clearError(path);
   } catch (e) {
-    showError("occluders", `occluder request failed: ${e.message}`);
+    q.onError?.(e);
+    showError(path, `${path} request failed: ${e.message}`);
   } finally {
     q.busy = false;
   }
 }
 
+// What the server renders into the occlusion map changes with the pose (in-frustum
+// occluders, nearest first, up to the triangle budget), so the debug view asks for it
+// while it is on.
+const occluderQuery = { busy: false, lastSeq: null, lastAt: 0, unavailable: false, intervalMs: 250 };
+
+function refreshOccluders() {
+  if (!app.debug) return;
+  queryPose(occluderQuery, "occluders", (body) => {
+    app.frameOccluders = new Set(body.occluders ?? []);
+    app.occludersVersion += 1;
+  });
+}
+
 // --- pyramid panel -------------------------------------------------------------------
 
-const pyramid = { open: false, busy: false, lastSeq: null, lastAt: 0, unavailable: false };
+const pyramid = {
+  open: false,
+  busy: false,
+  lastSeq: null,
+  lastAt: 0,
+  unavailable: false,
+  intervalMs: 500,
+  onUnavailable() {
+    $("pyramid-status").textContent = "pyramid view not available on this server";
+    $("pyramid-levels").replaceChildren();
+  },
+  onError(e) {
+    $("pyramid-status").textContent = `pyramid request failed: ${e.message}`;
+  },
+};
 
 function setPyramid(open) {
   pyramid.open = open;
@@ -770,34 +798,9 @@ function setPyramid(open) {
   }
 }
 
-async function refreshPyramid() {
-  if (!pyramid.open || pyramid.busy || pyramid.unavailable || !app.lastPose || !app.sceneId) return;
-  if (pyramid.lastSeq === app.lastPose.seq) return;
-  const now = performance.now();
-  if (now - pyramid.lastAt < 500) return;
-  pyramid.busy = true;
-  pyramid.lastAt = now;
-  const { seq, position, rotation, fov_y_deg, viewport, near, far } = app.lastPose;
-  const status = $("pyramid-status");
-  try {
-    const r = await fetch(`/v1/scenes/${encodeURIComponent(app.sceneId)}/pyramid`, {
-      method: "POST",
-      headers: { "content-type": "application/json" },
-      body: JSON.stringify({ pose: { position, rotation, fov_y_deg, viewport, near, far } }),
-    });
-    let body = null;
-    try {
-      body = await r.json();
-    } catch {
-      /* not JSON */
-    }
-    if (r.status === 404 && body?.error?.code !== "unknown_scene") {
-      pyramid.unavailable = true;
-      status.textContent = "pyramid view not available on this server";
-      $("pyramid-levels").replaceChildren();
-      return;
-    }
-    if (!r.ok) throw new Error(body?.error?.message ?? `HTTP ${r.status}`);
+function refreshPyramid() {
+  if (!pyramid.open) return;
+  queryPose(pyramid, "pyramid", (body, seq) => {
     const levels = body?.levels ?? [];
     const figs = levels.map((l) => {
       const fig = document.createElement("figure");
@@ -813,15 +816,8 @@ async function refreshPyramid() {
       return fig;
     });
     $("pyramid-levels").replaceChildren(...figs);
-    status.textContent = `${levels.length} levels for pose #${seq} (white = opaque)`;
-    pyramid.lastSeq = seq;
-    clearError("pyramid");
-  } catch (e) {
-    status.textContent = `pyramid request failed: ${e.message}`;
-    showError("pyramid", `pyramid request failed: ${e.message}`);
-  } finally {
-    pyramid.busy = false;
-  }
+    $("pyramid-status").textContent = `${levels.length} levels for pose #${seq} (white = opaque)`;
+  });
 }
 
 // --- render loop ---------------------------------------------------------------------
