@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::server::{TestServer, street_walk};
+use common::server::{TestServer, post_json, street_walk};
 use homcull::scene::{SceneBuilder, write_glb};
 use homcull_proto::{BatchResponse, CullResponse, ErrorBody, ObjectList, SceneInfo, SceneList};
 use serde_json::{Value, json};
@@ -164,15 +164,12 @@ async fn every_route_and_every_error() {
         .send().await.unwrap().json().await.unwrap();
     let batched: Vec<Vec<u32>> = batch.results.into_iter().map(|r| r.visible).collect();
     assert_eq!(batched, singles);
-    let frustum: CullResponse = http
-        .post(srv.url("/v1/scenes/demo/cull"))
-        .json(&json!({"pose": pose_json(&poses[0]), "options": {"method": "frustum"}}))
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let frustum: CullResponse = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/cull"),
+        &json!({"pose": pose_json(&poses[0]), "options": {"method": "frustum"}}),
+    )
+    .await;
     assert!(
         singles[0].iter().all(|i| frustum.visible.contains(i)),
         "hom ⊆ frustum"
@@ -183,15 +180,12 @@ async fn every_route_and_every_error() {
     );
 
     // The pyramid debug view: one PNG per level, level 0 at the viewport size.
-    let pyr: Value = http
-        .post(srv.url("/v1/scenes/demo/pyramid"))
-        .json(&json!({"pose": pose_json(&poses[0])}))
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let pyr: Value = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/pyramid"),
+        &json!({"pose": pose_json(&poses[0])}),
+    )
+    .await;
     let levels = pyr["levels"].as_array().expect("levels");
     assert_eq!(
         levels.len(),
@@ -220,15 +214,12 @@ async fn every_route_and_every_error() {
 
     // The occluders of a pose: distinct qualifying occluders within the budget, all in
     // the frustum (so among the frustum method's visible set).
-    let occ: Value = http
-        .post(srv.url("/v1/scenes/demo/occluders"))
-        .json(&json!({"pose": pose_json(&poses[0])}))
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let occ: Value = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/occluders"),
+        &json!({"pose": pose_json(&poses[0])}),
+    )
+    .await;
     let ids: Vec<u32> = serde_json::from_value(occ["occluders"].clone()).expect("occluder ids");
     assert!(!ids.is_empty(), "a street pose renders occluders");
     assert!(ids.iter().all(|i| frustum.visible.contains(i)));
@@ -380,15 +371,7 @@ async fn every_route_and_every_error() {
     );
 
     // Still serving, and the metrics saw it all.
-    let r: CullResponse = http
-        .post(&cull)
-        .json(&json!({"pose": pose_json(&poses[0])}))
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let r: CullResponse = post_json(&http, &cull, &json!({"pose": pose_json(&poses[0])})).await;
     assert_eq!(r.visible, singles[0]);
     let metrics = http
         .get(srv.url("/metrics"))
@@ -448,15 +431,7 @@ async fn uploads_persist_across_restarts_and_writes_need_the_token() {
     let pose =
         json!({"pose": {"position": [0, 1, 5], "look_at": [0, 1, -20], "viewport": [320, 180]}});
     let cull_url = srv.url(&format!("/v1/scenes/{}/cull", info.id));
-    let before: CullResponse = http
-        .post(&cull_url)
-        .json(&pose)
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let before: CullResponse = post_json(&http, &cull_url, &pose).await;
     assert_eq!(
         before.visible,
         vec![0],
@@ -502,15 +477,7 @@ async fn uploads_persist_across_restarts_and_writes_need_the_token() {
         .unwrap();
     assert_eq!(objects_after, objects_before);
     let cull_url = srv.url(&format!("/v1/scenes/{}/cull", info.id));
-    let after: CullResponse = http
-        .post(&cull_url)
-        .json(&pose)
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let after: CullResponse = post_json(&http, &cull_url, &pose).await;
     assert_eq!(after.visible, before.visible);
     let glb_back = http
         .get(srv.url(&format!("/v1/scenes/{}/glb", info.id)))

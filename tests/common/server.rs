@@ -103,6 +103,22 @@ impl TestServer {
 
 /// A street-level walk through the demo city: along the x axis on the z = 0 street from
 /// x = −150 m to 150 m, eye 1.7 m up, looking roughly along the walk with a slow sway.
+/// `POST url` with a JSON body; the answer's JSON body (panics on any failure).
+pub async fn post_json<T: serde::de::DeserializeOwned>(
+    http: &reqwest::Client,
+    url: impl reqwest::IntoUrl,
+    body: &impl serde::Serialize,
+) -> T {
+    http.post(url)
+        .json(body)
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap()
+}
+
 pub fn street_walk(n: usize, viewport: [u32; 2]) -> Vec<Pose> {
     (0..n)
         .map(|i| {

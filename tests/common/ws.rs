@@ -9,7 +9,7 @@ use homcull_proto::{CullResponse, Pose};
 use serde_json::json;
 use tokio_tungstenite::tungstenite::Message;
 
-use super::server::TestServer;
+use super::server::{TestServer, post_json};
 
 pub type Ws =
     tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
@@ -91,15 +91,12 @@ impl Tracker {
 
 /// `POST /cull` with the stream's default options (`refine` is false for streams).
 pub async fn rest_cull(http: &reqwest::Client, srv: &TestServer, pose: &Pose) -> Vec<u32> {
-    let r: CullResponse = http
-        .post(srv.url("/v1/scenes/demo/cull"))
-        .json(&json!({ "pose": pose, "options": { "refine": false } }))
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let r: CullResponse = post_json(
+        http,
+        srv.url("/v1/scenes/demo/cull"),
+        &json!({ "pose": pose, "options": { "refine": false } }),
+    )
+    .await;
     r.visible
 }
 
