@@ -4,10 +4,12 @@
 //! - [`scene_buffers`]: a scene's vertices, indices and test boxes, uploaded once.
 //! - [`raster`]: occluder raster (view depth) and oracle raster (object IDs), sharing
 //!   one invariant vertex stage.
-//! - [`pyramid`]: level 0 and the 2×2 reductions (compute).
+//! - [`pyramid`]: the 2×2 reductions, two levels per dispatch (compute); level 0 is
+//!   the occlusion map itself.
 //! - [`test_pass`]: the per-object HOM / HZB test (compute), writing a bitmask.
 //! - [`refine`]: HOM's refinement: the box test's survivors re-rasterized against the
-//!   occlusion map, writing a second bitmask.
+//!   occluders' depth buffer (early depth tests where the adapter can force them),
+//!   writing a second bitmask.
 //! - [`oracle`]: ID buffer → visibility bitmask (compute).
 //! - [`batch`]: [`GpuBackend`], which records all passes of a batch of poses into one
 //!   submission with one readback.

@@ -4,8 +4,9 @@
 //! position) and the same reversed-Z depth test, so a pixel an occluder covers in the
 //! occlusion map is a pixel it covers in the oracle's ID buffer: HOM's coverage and the
 //! ground truth never disagree by rasterization. The occluder raster writes the view
-//! depth of the nearest occluder per pixel (0 = uncovered) to an `r32float` target;
-//! the oracle writes the nearest object's ID to an `r32uint` target.
+//! depth of the nearest occluder per pixel (0 = uncovered) to an `r32float` target and
+//! keeps its depth buffer for the refinement (`crate::gpu::refine`); the oracle writes
+//! the nearest object's ID to an `r32uint` target.
 
 use super::scene_buffers::SceneBuffers;
 use super::{GpuContext, UNIFORM_SLOT, uniform_entry};
