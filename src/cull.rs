@@ -19,10 +19,10 @@ use homcull_proto::{CullOptions, CullStats, DebVariant, Method};
 use crate::bvh::BoxBvh;
 use crate::camera::Camera;
 use crate::hom::deb::{DEFAULT_TILE, DepthEstimationBuffer};
+use crate::hom::level_thresholds;
 use crate::hom::pyramid::{self, LevelLayout};
 use crate::hom::raster::{raster_depth, raster_ids, raster_triangle};
 use crate::hom::test::{PyramidView, hom_occluded, hzb_occluded};
-use crate::hom::{in_front, level_thresholds};
 use crate::occluders::{OccluderDb, OccluderParams, OccluderSelection};
 use crate::scene::Scene;
 
@@ -312,8 +312,11 @@ impl CpuBackend {
         mask
     }
 
-    /// True if every pixel centre the object covers lies behind the occluder depth map
-    /// `occluders` (level 0, 0 = uncovered), with the HOM test's depth margin.
+    /// True if every pixel centre the object covers lies strictly behind the occluder
+    /// depth map `occluders` (level 0, 0 = uncovered). No depth margin: the map holds
+    /// the same rasterizer's depths of a subset of the oracle's fragments, so a pixel
+    /// the oracle gives to the object is at or in front of the map there (the GPU's
+    /// early depth test makes the same comparison on its own depths).
     pub fn hidden_per_pixel(scene: &Scene, cam: &Camera, occluders: &[f32], id: u32) -> bool {
         let o = &scene.objects[id as usize];
         scene.triangles_of(o).chunks_exact(3).all(|t| {
@@ -321,7 +324,7 @@ impl CpuBackend {
             let mut hidden = true;
             raster_triangle(cam, tri, |x, y, d| {
                 let occ = occluders[(y * cam.width + x) as usize];
-                hidden &= occ > 0.0 && in_front(occ, d);
+                hidden &= occ > 0.0 && occ < d;
             });
             hidden
         })

@@ -4,7 +4,7 @@
 //! Every object the oracle hides but HOM keeps falls in one of two classes, decided by
 //! an *ideal per-pixel test*: rasterize the object's own triangles and check that every
 //! pixel it covers lies behind the occluders HOM selected for the pose (their level-0
-//! depth map, with the same depth margin as the HOM test).
+//! depth map, compared without a margin as the refinement does).
 //!
 //! - **boxes**: the ideal test hides it, so the occluders were enough and the loss is the
 //!   test's bounding boxes (a box's screen rect covers pixels the object does not: gaps
@@ -12,8 +12,8 @@
 //!   these back.
 //! - **occluders**: some pixel of the object is not behind a selected occluder: it is
 //!   hidden by objects that are not occluders (too small or too complex for the occluder
-//!   database, or beyond the triangle budget), or only by geometry at the same depth
-//!   (within the margin). A larger or different occluder set wins these back.
+//!   database, or beyond the triangle budget), or only by geometry at exactly the same
+//!   depth. A larger or different occluder set wins these back.
 //!
 //! Everything runs on the CPU reference, which the tests prove equal to the GPU passes.
 

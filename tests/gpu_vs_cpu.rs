@@ -89,12 +89,14 @@ fn raster_pyramid_and_test_match_cpu() {
         let cpu_mask = CpuBackend::test_boxes(&prep.scene, p, &s, &layout, go, gd);
         assert_eq!(cpu_mask, gpu_masks[k], "pose {k}: object test differs");
         assert!(cpu_mask.iter().any(|&w| w != 0));
-        // Refinement on the same occlusion map: the box test's survivors re-tested per
-        // pixel. Rasterization differs on a thin set of edge pixels between the two, so
-        // an object whose only visible pixels are such edge pixels may go either way;
-        // conservativeness against the oracle is the property test's job.
+        // Refinement of the same box test's survivors, each side against its own
+        // rasterizer's occluder depth (the comparison has no margin, so it must not mix
+        // the CPU's object depths with the GPU's map). Rasterization differs on a thin
+        // set of edge pixels between the two, so an object whose only visible pixels are
+        // such edge pixels may go either way; conservativeness against the oracle is the
+        // property test's job.
         let mut cpu_refined = cpu_mask.clone();
-        CpuBackend::refine(&prep.scene, p, &gd[..n0], &mut cpu_refined);
+        CpuBackend::refine(&prep.scene, p, &cpu0, &mut cpu_refined);
         let g = &gpu_refined[k];
         assert!(
             g.iter().zip(&gpu_masks[k]).all(|(r, b)| r & !b == 0),

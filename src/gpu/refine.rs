@@ -14,8 +14,9 @@
 //!    shader, and a pixel the oracle gives to an object always passes, since the oracle
 //!    keeps the nearest of a superset of the same fragments. Elsewhere every fragment
 //!    runs `fs_refine`, which compares with the occlusion map and the box test's depth
-//!    margin. CPU twin: `CpuBackend::refine` (the margin variant; both are
-//!    conservative, and they differ only on depth near-ties).
+//!    margin. CPU twin: `CpuBackend::refine` (the early-test comparison on the CPU
+//!    rasterizer's own depths; all three are conservative and differ only on depth
+//!    near-ties).
 
 use super::raster::{DepthTest, DrawList, RasterPass, triangle_pipeline};
 use super::scene_buffers::SceneBuffers;
