@@ -199,6 +199,7 @@ pub async fn run(
 ) -> std::io::Result<()> {
     let grace = Duration::from_secs(state.config.shutdown_grace_s);
     let mut stopping = state.shutdown.clone();
+    let sessions = state.clone();
     let app = app(state);
     // Small frames must leave at once: no Nagle delay on any connection.
     let listener = axum::serve::ListenerExt::tap_io(listener, |tcp| {
@@ -209,6 +210,20 @@ pub async fn run(
         tracing::info!("shutting down: draining requests and closing WebSockets");
         let _ = shutdown_tx.send(true);
     });
+    // Upgraded WebSockets are not connections axum's graceful shutdown waits for: wait
+    // until every session has sent its close frame (each holds a client slot until
+    // then), within the same grace period.
+    let serve = async move {
+        serve.await?;
+        while sessions
+            .ws_clients
+            .load(std::sync::atomic::Ordering::SeqCst)
+            > 0
+        {
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+        Ok(())
+    };
     let deadline = async move {
         let _ = stopping.wait_for(|s| *s).await;
         tokio::time::sleep(grace).await;
