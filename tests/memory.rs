@@ -14,6 +14,10 @@ use std::time::{Duration, Instant};
 
 /// Allowed growth per scene, as a multiple of its GLB.
 const MAX_GLB_MULTIPLE: f64 = 4.0;
+/// What one scene's RSS growth varies by between identical runs (allocator arenas,
+/// page granularity; measured ±1 MiB): allowed on top of the multiple per scene, never
+/// for the sum over all scenes, which must stay within the multiple on its own.
+const RSS_NOISE_BYTES: f64 = 1024.0 * 1024.0;
 
 struct Server {
     child: Child,
@@ -133,6 +137,7 @@ async fn a_resident_scene_costs_at_most_four_times_its_glb() {
         empty as f64 / 1048576.0,
         before as f64 / 1048576.0
     );
+    let (mut total_grew, mut total_glb) = (0, 0);
     for name in ["munich", "oa_shouse", "etoile", "oa_dm1", "fzk_haus"] {
         let glb = upload(&http, &server, &scenes.join(format!("{name}.glb"))).await;
         let after = settled_rss(pid).await;
@@ -144,9 +149,21 @@ async fn a_resident_scene_costs_at_most_four_times_its_glb() {
             grew as f64 / glb as f64
         );
         assert!(
-            grew as f64 <= MAX_GLB_MULTIPLE * glb as f64,
+            grew as f64 <= MAX_GLB_MULTIPLE * glb as f64 + RSS_NOISE_BYTES,
             "{name}: resident memory grew {grew} bytes for a {glb}-byte GLB"
         );
+        total_grew += grew;
+        total_glb += glb;
         before = after;
     }
+    eprintln!(
+        "all five: GLB {:.2} MiB, RSS +{:.2} MiB = {:.1}× the GLB",
+        total_glb as f64 / 1048576.0,
+        total_grew as f64 / 1048576.0,
+        total_grew as f64 / total_glb as f64
+    );
+    assert!(
+        total_grew as f64 <= MAX_GLB_MULTIPLE * total_glb as f64,
+        "resident memory grew {total_grew} bytes for {total_glb} bytes of GLB"
+    );
 }
