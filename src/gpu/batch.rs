@@ -36,7 +36,6 @@ struct SlotTargets {
     height: u32,
     slots: u32,
     layout: LevelLayout,
-    occlusion: wgpu::Texture,
     ids: wgpu::Texture,
     /// Per slot: the occluders' depth, kept for the refinement (the oracle reuses it).
     depth_layers: Vec<wgpu::TextureView>,
@@ -44,10 +43,14 @@ struct SlotTargets {
     id_layers: Vec<wgpu::TextureView>,
     opacity: wgpu::Buffer,
     pyramid_depth: wgpu::Buffer,
+    /// All occlusion layers as one array view (pyramid, test and refinement read it).
+    occlusion_array: wgpu::TextureView,
+    /// The pyramid pass bound to these targets; nothing in it changes between batches.
+    pyramid_bg: wgpu::BindGroup,
 }
 
 impl SlotTargets {
-    fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
+    fn new(device: &wgpu::Device, pyramid: &PyramidPass, width: u32, height: u32) -> Self {
         let layout = LevelLayout::new(width, height);
         let per_slot = (width as u64 * height as u64) * 12 + layout.total as u64 * 8;
         let slots = (SLOT_MEMORY_BUDGET / per_slot).clamp(1, MAX_SLOTS as u64) as u32;
@@ -91,6 +94,11 @@ impl SlotTargets {
                 mapped_at_creation: false,
             })
         };
+        let opacity = buf("pyramid opacity");
+        let pyramid_depth = buf("pyramid depth");
+        let occlusion_array = Self::array_view(&occlusion);
+        let pyramid_bg =
+            pyramid.bind_group(device, &layout, &opacity, &pyramid_depth, &occlusion_array);
         SlotTargets {
             width,
             height,
@@ -98,10 +106,11 @@ impl SlotTargets {
             occlusion_layers: layers(&occlusion),
             id_layers: layers(&ids),
             depth_layers: layers(&depth),
-            opacity: buf("pyramid opacity"),
-            pyramid_depth: buf("pyramid depth"),
+            opacity,
+            pyramid_depth,
+            occlusion_array,
+            pyramid_bg,
             layout,
-            occlusion,
             ids,
         }
     }
@@ -231,7 +240,12 @@ impl GpuBackend {
             .is_none_or(|t| (t.width, t.height) != (width, height))
         {
             *t = None; // free the old targets before allocating new ones
-            *t = Some(SlotTargets::new(&self.ctx.device, width, height));
+            *t = Some(SlotTargets::new(
+                &self.ctx.device,
+                &self.passes.pyramid,
+                width,
+                height,
+            ));
         }
         t
     }
@@ -460,18 +474,10 @@ impl GpuBackend {
         self.record_with(guard.as_ref().expect("targets exist"), plans, s)?;
         let t = guard.as_ref().expect("targets exist after a batch");
         let size = t.layout.total as u64 * plans.len() as u64 * 4;
-        let device = &self.ctx.device;
-        let pyramid = &self.passes.pyramid;
-        let occlusion_view = SlotTargets::array_view(&t.occlusion);
-        let bg = pyramid.bind_group(
-            device,
-            &t.layout,
-            &t.opacity,
-            &t.pyramid_depth,
-            &occlusion_view,
-        );
-        let mut enc = device.create_command_encoder(&Default::default());
-        pyramid.record_level0(&mut enc, &bg, &t.layout, plans.len() as u32);
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        self.passes
+            .pyramid
+            .record_level0(&mut enc, &t.pyramid_bg, &t.layout, plans.len() as u32);
         let opacity = self.read_buffer(enc, &t.opacity, size)?;
         let enc = self.ctx.device.create_command_encoder(&Default::default());
         let depth = self.read_buffer(enc, &t.pyramid_depth, size)?;
@@ -630,14 +636,6 @@ impl GpuBackend {
                     .record(&mut encoder, &bg, g as u32, w, h, b - a);
             }
         } else {
-            let occlusion_view = SlotTargets::array_view(&t.occlusion);
-            let pyr_bg = self.passes.pyramid.bind_group(
-                device,
-                &t.layout,
-                &t.opacity,
-                &t.pyramid_depth,
-                &occlusion_view,
-            );
             let deb0 = &plans[0].deb;
             let cfg = TestConfig::new(
                 s.options.method,
@@ -702,13 +700,13 @@ impl GpuBackend {
                     },
                     wgpu::BindGroupEntry {
                         binding: 9,
-                        resource: wgpu::BindingResource::TextureView(&occlusion_view),
+                        resource: wgpu::BindingResource::TextureView(&t.occlusion_array),
                     },
                 ],
             });
             let refine = s
                 .refines()
-                .then(|| self.refine_inputs(plans, &groups, &mask, &occlusion_view, words));
+                .then(|| self.refine_inputs(plans, &groups, &mask, &t.occlusion_array, words));
             for (g, &(a, b)) in groups.iter().enumerate() {
                 for p in a..b {
                     self.passes.raster.record(
@@ -724,7 +722,7 @@ impl GpuBackend {
                 }
                 self.passes
                     .pyramid
-                    .record(&mut encoder, &pyr_bg, &t.layout, b - a);
+                    .record(&mut encoder, &t.pyramid_bg, &t.layout, b - a);
                 self.passes
                     .test
                     .record(&mut encoder, &test_bg, g as u32, group_params[g].b);

@@ -319,6 +319,29 @@ pub(crate) fn record_wide(
     pass.dispatch_workgroups(x, groups.div_ceil(x), 1);
 }
 
+/// Records a compute pass of 8×8 workgroups over a `width` × `height` grid for each of
+/// `slots` pose slots (z = slot), with `bind_group` bound at uniform slot `slot`: the
+/// shape of the per-pixel passes (pyramid, oracle collect).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn record_grid(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    bind_group: &wgpu::BindGroup,
+    slot: u32,
+    width: u32,
+    height: u32,
+    slots: u32,
+) {
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, bind_group, &[(slot as u64 * UNIFORM_SLOT) as u32]);
+    pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), slots);
+}
+
 /// Uniform slots are 256 bytes apart (the dynamic-offset alignment every adapter accepts).
 pub const UNIFORM_SLOT: u64 = 256;
 

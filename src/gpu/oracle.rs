@@ -2,7 +2,7 @@
 //! visibility bit of every object that owns at least one pixel.
 //! CPU twin: `hom::raster::raster_ids` plus a scan in `cull.rs`.
 
-use super::{GpuContext, UNIFORM_SLOT, storage_entry, texture_array_entry, uniform_entry};
+use super::{GpuContext, record_grid, storage_entry, texture_array_entry, uniform_entry};
 
 pub struct OraclePass {
     pub layout: wgpu::BindGroupLayout,
@@ -34,12 +34,15 @@ impl OraclePass {
         height: u32,
         slots: u32,
     ) {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("oracle collect"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, bind_group, &[(group as u64 * UNIFORM_SLOT) as u32]);
-        pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), slots);
+        record_grid(
+            encoder,
+            "oracle collect",
+            &self.pipeline,
+            bind_group,
+            group,
+            width,
+            height,
+            slots,
+        );
     }
 }

@@ -6,13 +6,11 @@
 
 use wgpu::util::DeviceExt;
 
-use super::{GpuContext, UNIFORM_SLOT, slotted, storage_entry, texture_array_entry, uniform_entry};
+use super::{GpuContext, record_grid, slotted, storage_entry, texture_array_entry, uniform_entry};
 use crate::hom::{MAX_LEVELS, pyramid::LevelLayout};
 
 /// Levels one dispatch writes after the one it reads.
 const LEVELS_PER_STEP: usize = 2;
-/// Workgroup side (8 × 8 invocations).
-const WG: u32 = 8;
 
 /// `Step` in `pyramid.wgsl`: the level a dispatch reads.
 #[repr(C)]
@@ -143,13 +141,16 @@ impl PyramidPass {
             // One invocation per 2×2 texels of the first level written.
             let (w, h) = layout.dims[step.src_level as usize + 1];
             let (w, h) = (w.div_ceil(2), h.div_ceil(2));
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("pyramid levels"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(&self.downsample);
-            pass.set_bind_group(0, bind_group, &[(k as u64 * UNIFORM_SLOT) as u32]);
-            pass.dispatch_workgroups(w.div_ceil(WG), h.div_ceil(WG), slots);
+            record_grid(
+                encoder,
+                "pyramid levels",
+                &self.downsample,
+                bind_group,
+                k as u32,
+                w,
+                h,
+                slots,
+            );
         }
     }
 
@@ -163,12 +164,15 @@ impl PyramidPass {
         slots: u32,
     ) {
         let (w, h) = layout.dims[0];
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("pyramid level 0"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.export_level0);
-        pass.set_bind_group(0, bind_group, &[0]);
-        pass.dispatch_workgroups(w.div_ceil(WG), h.div_ceil(WG), slots);
+        record_grid(
+            encoder,
+            "pyramid level 0",
+            &self.export_level0,
+            bind_group,
+            0,
+            w,
+            h,
+            slots,
+        );
     }
 }
