@@ -103,6 +103,9 @@ pub struct EvalArgs {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Also measure GPU time per pass (timestamp queries; a second run per method).
+    #[arg(long)]
+    pub profile: bool,
     #[command(flatten)]
     pub params: CullParams,
 }

@@ -18,6 +18,7 @@ use homcull_proto::{CullOptions, CullStats, DebVariant, Method};
 
 use crate::bvh::BoxBvh;
 use crate::camera::Camera;
+use crate::gpu::profile::PassTimes;
 use crate::hom::deb::{DEFAULT_TILE, DepthEstimationBuffer};
 use crate::hom::level_thresholds;
 use crate::hom::pyramid::{self, LevelLayout};
@@ -165,6 +166,17 @@ pub trait Culler {
         plans: &[PosePlan],
         s: &CullSettings,
     ) -> Result<Vec<Vec<u32>>, CullError>;
+
+    /// Starts measuring GPU time per pass (`on`) or stops; false where this backend
+    /// cannot (the CPU reference, adapters without timestamp queries).
+    fn set_profiling(&mut self, _on: bool) -> bool {
+        false
+    }
+
+    /// GPU time per pass since profiling started or the times were last taken.
+    fn take_pass_times(&mut self) -> Option<PassTimes> {
+        None
+    }
 
     /// Culls a batch of cameras with the chosen method.
     fn cull(

@@ -10,6 +10,7 @@ use homcull_proto::CullOptions;
 
 use crate::camera::Camera;
 use crate::cull::{CpuBackend, CullError, CullSettings, Culler, PoseResult, PreparedScene};
+use crate::gpu::profile::PassTimes;
 use crate::gpu::{GpuBackend, GpuContext};
 use crate::occluders::OccluderParams;
 use crate::scene::Scene;
@@ -52,6 +53,16 @@ impl Engine {
     /// Settings for the given options with this scene's defaults.
     pub fn settings(&self, options: CullOptions) -> CullSettings {
         CullSettings::new(options, &self.prepared)
+    }
+
+    /// See [`Culler::set_profiling`].
+    pub fn set_profiling(&mut self, on: bool) -> bool {
+        self.backend.set_profiling(on)
+    }
+
+    /// See [`Culler::take_pass_times`].
+    pub fn take_pass_times(&mut self) -> Option<PassTimes> {
+        self.backend.take_pass_times()
     }
 
     pub fn cull(

@@ -14,6 +14,7 @@ use serde::Serialize;
 use crate::camera::Camera;
 use crate::cull::CullError;
 use crate::engine::Engine;
+use crate::gpu::profile::PassMsPerPose;
 use crate::pvs::Pvs;
 
 /// One method to evaluate, with the name it is reported under.
@@ -79,6 +80,10 @@ pub struct MethodReport {
     pub kept_triangles: u64,
     pub oracle_triangles: u64,
     pub ms_per_pose: Percentiles,
+    /// GPU milliseconds per pose of each pass (`--profile`, adapters with timestamp
+    /// queries), from a second run over the same poses.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gpu_ms_per_pass: Option<PassMsPerPose>,
     /// Objects kept that the scene's own PVS proves hidden (OpenArena maps only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub kept_pvs_hidden: Option<u64>,
@@ -107,13 +112,16 @@ pub struct EvalReport {
     pub pvs: Option<PvsCheck>,
 }
 
-/// Runs the oracle and every method on `cams` in batches of `batch`.
+/// Runs the oracle and every method on `cams` in batches of `batch`. With `profile`,
+/// each GPU method runs a second time with timestamps between its passes (kept apart
+/// so that the profiling's extra readback does not enter `ms_per_pose`).
 pub fn evaluate(
     engine: &mut Engine,
     cams: &[Camera],
     methods: &[MethodSpec],
     batch: usize,
     pvs: Option<&Pvs>,
+    profile: bool,
 ) -> Result<EvalReport, CullError> {
     let batch = batch.max(1);
     let exact = MethodSpec {
@@ -168,6 +176,12 @@ pub fn evaluate(
             Method::Frustum => (in_frustum.clone(), frustum_ms.clone()),
             _ => run(engine, spec)?,
         };
+        let mut gpu_ms_per_pass = None;
+        if profile && spec.options.method != Method::Frustum && engine.set_profiling(true) {
+            run(engine, spec)?;
+            gpu_ms_per_pass = engine.take_pass_times().map(|t| t.per_pose());
+            engine.set_profiling(false);
+        }
         let scene = &engine.prepared.scene;
         let tri = |ids: &[u32]| -> u64 {
             ids.iter()
@@ -178,6 +192,7 @@ pub fn evaluate(
             ms_per_pose: Percentiles::of(ms),
             ..Default::default()
         };
+        r.gpu_ms_per_pass = gpu_ms_per_pass;
         let mut kept_pvs_hidden = 0;
         for k in 0..cams.len() {
             let (o, v, f) = (&oracle[k], &visible[k], &in_frustum[k]);
@@ -278,6 +293,15 @@ pub fn table(r: &EvalReport) -> String {
             m.ms_per_pose.p50,
             m.ms_per_pose.p95
         );
+    }
+    for (name, m) in &r.methods {
+        if let Some(passes) = &m.gpu_ms_per_pass {
+            s += &format!("{name} GPU ms per pose:");
+            for (pass, ms) in &passes.0 {
+                s += &format!(" {pass} {ms:.3}");
+            }
+            s += "\n";
+        }
     }
     if let Some(p) = &r.pvs {
         s += &format!(

@@ -77,7 +77,7 @@ fn check(scene: Scene) {
     .map(|m| MethodSpec::parse(m, 1.0, DebVariant::Raster, true).unwrap())
     .collect();
     let mut engine = Engine::new(scene, OccluderParams::default(), Some(gpu));
-    let report = evaluate(&mut engine, &cams, &methods, 16, pvs.as_ref()).unwrap();
+    let report = evaluate(&mut engine, &cams, &methods, 16, pvs.as_ref(), false).unwrap();
     eprintln!("{}", homcull::eval::table(&report));
     for (m, r) in &report.methods {
         assert_eq!(

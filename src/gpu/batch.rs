@@ -12,6 +12,7 @@ use homcull_proto::Method;
 use wgpu::util::DeviceExt;
 
 use super::oracle::OraclePass;
+use super::profile::{Pass, PassTimes, Stamps};
 use super::pyramid::PyramidPass;
 use super::raster::{
     DEPTH_FORMAT, DrawList, ID_FORMAT, OCCLUSION_FORMAT, RasterKind, RasterPass, indirect_draws,
@@ -157,6 +158,8 @@ pub struct GpuBackend {
     passes: Arc<SharedPasses>,
     /// `(first_index, index_count)` of every object, for draw calls.
     draws: Vec<(u32, u32)>,
+    /// GPU time per pass since profiling started (`Some` while profiling).
+    profile: Option<PassTimes>,
 }
 
 fn storage(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
@@ -220,6 +223,7 @@ impl GpuBackend {
                 .iter()
                 .map(|o| (o.first_index, o.index_count))
                 .collect(),
+            profile: None,
             ctx,
         }
     }
@@ -471,7 +475,7 @@ impl GpuBackend {
                 plans.len()
             )));
         }
-        self.record_with(guard.as_ref().expect("targets exist"), plans, s)?;
+        self.record_with(guard.as_ref().expect("targets exist"), plans, s, false)?;
         let t = guard.as_ref().expect("targets exist after a batch");
         let size = t.layout.total as u64 * plans.len() as u64 * 4;
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
@@ -492,17 +496,29 @@ impl GpuBackend {
         plans: &[PosePlan],
         s: &CullSettings,
     ) -> Result<Vec<Vec<u32>>, GpuError> {
-        let guard = self.targets(plans[0].cam.width, plans[0].cam.height);
-        self.record_with(guard.as_ref().expect("targets exist"), plans, s)
+        let profile = self.profile.is_some();
+        let (masks, times) = {
+            let guard = self.targets(plans[0].cam.width, plans[0].cam.height);
+            self.record_with(guard.as_ref().expect("targets exist"), plans, s, profile)?
+        };
+        if let (Some(total), Some(t)) = (&mut self.profile, times) {
+            for (sum, ms) in total.ms.iter_mut().zip(t.ms) {
+                *sum += ms;
+            }
+            total.poses += t.poses;
+        }
+        Ok(masks)
     }
 
-    /// Records, submits and reads back one batch on the (locked) slot targets `t`.
+    /// Records, submits and reads back one batch on the (locked) slot targets `t`;
+    /// with `profile` (and timestamp support), also its GPU time per pass.
     fn record_with(
         &self,
         t: &SlotTargets,
         plans: &[PosePlan],
         s: &CullSettings,
-    ) -> Result<Vec<Vec<u32>>, GpuError> {
+        profile: bool,
+    ) -> Result<(Vec<Vec<u32>>, Option<PassTimes>), GpuError> {
         let started = std::time::Instant::now();
         let (w, h) = (plans[0].cam.width, plans[0].cam.height);
         let device = &self.ctx.device;
@@ -597,6 +613,18 @@ impl GpuBackend {
         };
         let mut encoder = device.create_command_encoder(&Default::default());
         let mut refined_mask = None;
+        let stamps_per_group = if exact { 2 } else { 3 + s.refines() as u32 };
+        let mut stamps = if profile && self.ctx.timestamps {
+            Stamps::new(device, 1 + groups.len() as u32 * stamps_per_group)
+        } else {
+            None
+        };
+        let mut mark = |encoder: &mut wgpu::CommandEncoder, pass: Option<Pass>| {
+            if let Some(st) = &mut stamps {
+                st.mark(encoder, pass);
+            }
+        };
+        mark(&mut encoder, None);
 
         if exact {
             let ids_view = SlotTargets::array_view(&t.ids);
@@ -631,9 +659,11 @@ impl GpuBackend {
                         draw_list(p),
                     );
                 }
+                mark(&mut encoder, Some(Pass::IdRaster));
                 self.passes
                     .oracle
                     .record(&mut encoder, &bg, g as u32, w, h, b - a);
+                mark(&mut encoder, Some(Pass::Collect));
             }
         } else {
             let deb0 = &plans[0].deb;
@@ -720,14 +750,18 @@ impl GpuBackend {
                         draw_list(p),
                     );
                 }
+                mark(&mut encoder, Some(Pass::OccluderRaster));
                 self.passes
                     .pyramid
                     .record(&mut encoder, &t.pyramid_bg, &t.layout, b - a);
+                mark(&mut encoder, Some(Pass::Pyramid));
                 self.passes
                     .test
                     .record(&mut encoder, &test_bg, g as u32, group_params[g].b);
+                mark(&mut encoder, Some(Pass::BoxTest));
                 if let Some(r) = &refine {
                     self.record_refine(&mut encoder, t, &pose_bg, r, g, a..b);
+                    mark(&mut encoder, Some(Pass::Refine));
                 }
             }
             if let Some(r) = refine {
@@ -740,19 +774,48 @@ impl GpuBackend {
             record_ms = started.elapsed().as_secs_f64() * 1e3,
             "recorded a batch"
         );
+        let resolved = stamps.as_ref().map(|st| st.resolve(&mut encoder));
         let result = refined_mask.as_ref().unwrap_or(&mask);
         let bytes = self.read_buffer(encoder, result, (p_count * words) as u64 * 4)?;
         let all: &[u32] = bytemuck::cast_slice(&bytes);
-        Ok(all
+        let masks = all
             .chunks_exact(words as usize)
             .map(|c| c.to_vec())
-            .collect())
+            .collect();
+        let times = match (&stamps, resolved) {
+            (Some(st), Some((buffer, size))) => {
+                let encoder = device.create_command_encoder(&Default::default());
+                let ticks = self.read_buffer(encoder, buffer, size)?;
+                let mut times = PassTimes {
+                    poses: p_count as u64,
+                    ..Default::default()
+                };
+                let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&ticks);
+                st.accumulate(
+                    &ticks,
+                    self.ctx.queue.get_timestamp_period(),
+                    &mut times,
+                );
+                Some(times)
+            }
+            _ => None,
+        };
+        Ok((masks, times))
     }
 }
 
 impl Culler for GpuBackend {
     fn describe(&self) -> String {
         self.ctx.describe()
+    }
+
+    fn set_profiling(&mut self, on: bool) -> bool {
+        self.profile = (on && self.ctx.timestamps).then(PassTimes::default);
+        self.profile.is_some()
+    }
+
+    fn take_pass_times(&mut self) -> Option<PassTimes> {
+        self.profile.as_mut().map(std::mem::take)
     }
 
     fn visibility(

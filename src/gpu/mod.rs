@@ -13,12 +13,14 @@
 //! - [`oracle`]: ID buffer → visibility bitmask (compute).
 //! - [`batch`]: [`GpuBackend`], which records all passes of a batch of poses into one
 //!   submission with one readback.
+//! - [`profile`]: GPU time per pass from timestamps written between the passes.
 //!
 //! Every pass has a CPU twin in `hom/` (the refinement's is `CpuBackend::refine`);
 //! tests run both on the same input.
 
 pub mod batch;
 pub mod oracle;
+pub mod profile;
 pub mod pyramid;
 pub mod raster;
 pub mod refine;
@@ -73,6 +75,9 @@ pub struct GpuContext {
     /// `SHADER_EARLY_DEPTH_TEST`); without it, the shader compares with the occlusion
     /// map (`crate::gpu::refine`).
     pub early_depth_test: bool,
+    /// Timestamps can be written between passes (`TIMESTAMP_QUERY_INSIDE_ENCODERS`),
+    /// so batches can be profiled pass by pass (`crate::gpu::profile`).
+    pub timestamps: bool,
     /// Pipelines and targets every scene's backend shares (built on first use).
     pub(crate) shared_passes: std::sync::OnceLock<Arc<batch::SharedPasses>>,
 }
@@ -113,7 +118,13 @@ impl GpuContext {
             && adapter
                 .features()
                 .contains(wgpu::Features::SHADER_EARLY_DEPTH_TEST);
+        let timestamp_features =
+            wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
+        let timestamps = adapter.features().contains(timestamp_features);
         let mut required_features = wgpu::Features::empty();
+        if timestamps {
+            required_features |= timestamp_features;
+        }
         if indirect_draws {
             required_features |= wgpu::Features::INDIRECT_FIRST_INSTANCE;
         }
@@ -133,6 +144,7 @@ impl GpuContext {
             info,
             indirect_draws,
             early_depth_test,
+            timestamps,
             shared_passes: Default::default(),
         })
     }

@@ -372,6 +372,7 @@ fn quality(r: &mut Report, scenes: &[Loaded]) -> Result<Vec<EvalReport>> {
             &methods,
             p.batch,
             l.pvs.as_ref(),
+            false,
         )?);
     }
     let _ = writeln!(
@@ -523,7 +524,7 @@ fn budget(r: &mut Report, scenes: &[Loaded]) -> Result<()> {
                 &format!("{} budget {b}", l.scene.name),
             );
             let mut engine = r.engine(l.scene.clone(), b);
-            let e = evaluate(&mut engine, &cams, &hom, p.batch, None)?;
+            let e = evaluate(&mut engine, &cams, &hom, p.batch, None, false)?;
             let m = &e.methods["hom-raster"];
             let _ = writeln!(
                 r.md,

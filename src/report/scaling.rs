@@ -75,7 +75,7 @@ pub(super) fn viewport(r: &mut Report) -> Result<()> {
             city.scene.clone(),
             OccluderParams::default().budget_triangles,
         );
-        let e = evaluate(&mut engine, &cams, &methods, p.batch.min(16), None)?;
+        let e = evaluate(&mut engine, &cams, &methods, p.batch.min(16), None, false)?;
         let px = vp[0] as f64 * vp[1] as f64;
         let ms: Vec<f64> = names
             .iter()
@@ -245,7 +245,7 @@ pub(super) fn objects(r: &mut Report) -> Result<()> {
             city.scene.clone(),
             OccluderParams::default().budget_triangles,
         );
-        let e = evaluate(&mut engine, &cams, &methods, p.batch.min(16), None)?;
+        let e = evaluate(&mut engine, &cams, &methods, p.batch.min(16), None, false)?;
         let ms: Vec<f64> = names
             .iter()
             .map(|n| e.methods[*n].ms_per_pose.p50)
