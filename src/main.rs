@@ -182,7 +182,14 @@ fn eval(a: EvalArgs) -> Result<()> {
         methods.len() + 1,
         engine.adapter()
     );
-    let report = evaluate(&mut engine, &cams, &methods, a.batch, pvs.as_ref(), a.profile)?;
+    let report = evaluate(
+        &mut engine,
+        &cams,
+        &methods,
+        a.batch,
+        pvs.as_ref(),
+        a.profile,
+    )?;
     if a.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {

@@ -79,9 +79,15 @@ fn pass_times_cover_the_passes_each_method_runs() {
         for pass in Pass::ALL {
             let ms = times.get(pass);
             if passes.contains(&pass) {
-                assert!(ms > 0.0, "{method:?}: no time charged to {pass:?}: {times:?}");
+                assert!(
+                    ms > 0.0,
+                    "{method:?}: no time charged to {pass:?}: {times:?}"
+                );
             } else {
-                assert_eq!(ms, 0.0, "{method:?}: time charged to {pass:?}, which it skips");
+                assert_eq!(
+                    ms, 0.0,
+                    "{method:?}: time charged to {pass:?}, which it skips"
+                );
             }
         }
         assert!(

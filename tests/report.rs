@@ -76,6 +76,37 @@ fn quick_report_writes_markdown_and_plots() {
         "hom-refine, hom ×3 DEBs and hzb per scene"
     );
 
+    // GPU time per pass: a row per scene and method with time in every pass it runs.
+    let passes = quality
+        .split("### GPU time per pass")
+        .nth(1)
+        .expect("a GPU time per pass subsection");
+    if homcull::gpu::require_gpu() {
+        let rows: Vec<Vec<&str>> = passes
+            .lines()
+            .filter(|l| l.starts_with("| ") && !l.starts_with("| scene"))
+            .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+            .collect();
+        for scene in &scenes_seen {
+            let hom = rows
+                .iter()
+                .find(|c| c[0] == scene && c[1] == "hom-refine")
+                .unwrap_or_else(|| panic!("no hom-refine pass times for {scene}"));
+            for (cell, pass) in hom[2..6]
+                .iter()
+                .zip(["raster", "pyramid", "test", "refine"])
+            {
+                let ms: f64 = cell.parse().unwrap_or_else(|_| panic!("{pass}: {cell}"));
+                assert!(ms > 0.0, "{scene}: no GPU time in the {pass} pass");
+            }
+            assert!(
+                rows.iter()
+                    .any(|c| c[0] == scene && c[1] == "exact" && c[6] != "–"),
+                "{scene}: the oracle's ID raster is timed"
+            );
+        }
+    }
+
     // The server section measures WebSocket clients with batching on and off, and REST
     // one pose per request against batches.
     let server = md.split("## 6. Server").nth(1).expect("a server section");

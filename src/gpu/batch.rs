@@ -791,11 +791,7 @@ impl GpuBackend {
                     ..Default::default()
                 };
                 let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&ticks);
-                st.accumulate(
-                    &ticks,
-                    self.ctx.queue.get_timestamp_period(),
-                    &mut times,
-                );
+                st.accumulate(&ticks, self.ctx.queue.get_timestamp_period(), &mut times);
                 Some(times)
             }
             _ => None,

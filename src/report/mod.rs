@@ -16,6 +16,7 @@
 //! section, so an interrupted run leaves what it measured.
 
 mod losses;
+mod passes;
 pub mod plot;
 mod scaling;
 mod server;
@@ -265,6 +266,8 @@ pub fn main(a: ReportArgs) -> Result<()> {
             let evals = quality(&mut r, &scenes)?;
             r.save()?;
             losses::section(&mut r, &scenes)?;
+            r.save()?;
+            passes::section(&mut r, &scenes)?;
             r.save()?;
             thresholds(&mut r, &evals)?;
             r.save()?;
