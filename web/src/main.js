@@ -6,6 +6,7 @@ import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 
 import { HomcullClient, State } from "./client.js";
+import { ViewLog, parseDisplayMode, useLockstep } from "./display.js";
 import { flatten, mapObjects } from "./scene-map.js";
 
 const EYE_HEIGHT = 1.7;
@@ -78,6 +79,9 @@ const camera = new THREE.PerspectiveCamera(60, 16 / 9, NEAR, DEFAULT_FAR);
 camera.rotation.order = "YXZ";
 scene3.add(camera);
 
+// Lockstep display (display.js): the camera of the pose the drawn set answers.
+const answeredCamera = new THREE.PerspectiveCamera(60, 16 / 9, NEAR, DEFAULT_FAR);
+
 const overviewCamera = new THREE.PerspectiveCamera(50, 16 / 9, 1, 20000);
 const frustumProxy = new THREE.PerspectiveCamera(60, 16 / 9, NEAR, 60);
 const frustumHelper = new THREE.CameraHelper(frustumProxy);
@@ -114,7 +118,13 @@ const app = {
   latestVersion: 0,
   appliedVersion: -1,
   appliedKey: "",
-  rendered: null, // {ack, ids, stats} of the last rendered frame
+  rendered: null, // {ack, ids, stats, view, lockstep} of the last rendered frame
+  // Display mode (display.js, `?display=auto|lockstep|predict`) and whether frames are
+  // drawn in lockstep now; the views of the poses sent, until answered.
+  display: parseDisplayMode(query.get("display")),
+  lockstep: query.get("display") === "lockstep",
+  views: new ViewLog(),
+  sendingExact: false, // the pose last given to the client is the drawn view itself
   lastPose: null, // {seq, position, rotation, fov_y_deg, viewport, near, far} last sent
   drawnCount: 0,
   drawnTriangles: 0,
@@ -409,12 +419,13 @@ function connect(sceneId) {
   client.addEventListener("pose", (e) => {
     const { seq, pose, wantFull } = e.detail;
     app.lastPose = { seq, wantFull, ...pose };
+    app.views.record(seq, { ...pose, exact: app.sendingExact });
   });
   client.addEventListener("visible", (e) => {
     const d = e.detail;
     const mask = new Uint8Array(app.meshesById.length);
     for (const id of d.ids) if (id < mask.length) mask[id] = 1;
-    app.latest = { ack: d.ack, ids: d.ids, stats: d.stats, mask };
+    app.latest = { ack: d.ack, ids: d.ids, stats: d.stats, mask, view: app.views.answer(d.ack) };
     app.latestVersion += 1;
     if (d.ids.length && d.ids[d.ids.length - 1] >= mask.length) {
       showError("range", `the server sent object ID ${d.ids[d.ids.length - 1]}, beyond the ${mask.length} objects of the scene`);
@@ -452,10 +463,15 @@ export function guardBand(w, h, fovDeg) {
   return { fov, viewport: [Math.round(w * grow), Math.round(h * grow)] };
 }
 
+/**
+ * The pose to cull for the controls' camera: the drawn view itself in lockstep (the set
+ * is drawn with this very view), else widened by the guard band.
+ */
 function currentPose() {
   const w = Math.max(1, Math.round(canvas.clientWidth));
   const h = Math.max(1, Math.round(canvas.clientHeight));
-  const band = guardBand(w, h, camera.fov);
+  app.sendingExact = app.lockstep;
+  const band = app.lockstep ? { fov: camera.fov, viewport: [w, h] } : guardBand(w, h, camera.fov);
   return {
     position: camera.position.toArray(),
     rotation: camera.quaternion.toArray(),
@@ -704,6 +720,12 @@ function updateHud() {
     setHud("hud-rtt-p95", Number.isFinite(r.p95) ? r.p95 : "", (v) => (v === "" ? "\u2013" : fmtMs(v)));
   }
   setHud("hud-fps", app.fps, (v) => String(v));
+  const display = app.lockstep ? "lockstep" : "predict";
+  setHud("hud-display", display, (v) => (app.display === "auto" ? `${v} (auto)` : v));
+  $("hud-display").title =
+    "lockstep: each visible set is drawn with the view of the pose it answers (nothing pops; the view lags by one round trip). " +
+    "predict: the latest set is drawn with the current camera (the guard band and smoothing cover the motion). " +
+    "auto: lockstep while the round trip p50 is under 12 ms.";
   const notes = [];
   if (!app.culling) notes.push("Culling is off: everything is drawn.");
   if (app.debug)
@@ -870,11 +892,18 @@ function loop(now) {
   if (app.mode === "walk") updateWalk(dt);
   else controls.update();
   camera.updateMatrixWorld();
+  if (app.client) app.lockstep = useLockstep(app.display, app.lockstep, app.client.rtt().p50);
   if (app.client && app.loaded) app.client.setPose(currentPose());
   applyVisibility();
+  // Lockstep: draw the set with the view of the pose it answers (only a pose sent as the
+  // drawn view itself, not one widened by the guard band).
+  const answered = app.lockstep && app.latest?.view?.exact ? app.latest.view : null;
+  const drawnCamera = answered ? cameraForView(answered) : camera;
   if (app.overview) renderOverview();
-  else renderer.render(scene3, camera);
-  app.rendered = app.latest ? { ack: app.latest.ack, ids: app.latest.ids, stats: app.latest.stats } : null;
+  else renderer.render(scene3, drawnCamera);
+  app.rendered = app.latest
+    ? { ack: app.latest.ack, ids: app.latest.ids, stats: app.latest.stats, view: viewOf(drawnCamera), lockstep: Boolean(answered) }
+    : null;
 
   app.frameTimes.push(now);
   while (app.frameTimes.length && app.frameTimes[0] < now - 1000) app.frameTimes.shift();
@@ -886,6 +915,31 @@ function loop(now) {
     firstFrameDone = true;
     resolveReady({ scene: app.sceneId, ack: app.rendered.ack });
   }
+}
+
+/** `answeredCamera` placed at a pose as sent ({position, rotation, fov_y_deg, viewport}). */
+function cameraForView(view) {
+  answeredCamera.position.fromArray(view.position);
+  answeredCamera.quaternion.fromArray(view.rotation);
+  answeredCamera.fov = view.fov_y_deg;
+  answeredCamera.aspect = view.viewport[0] / view.viewport[1];
+  answeredCamera.near = view.near ?? camera.near;
+  answeredCamera.far = view.far ?? camera.far;
+  answeredCamera.updateProjectionMatrix();
+  answeredCamera.updateMatrixWorld();
+  return answeredCamera;
+}
+
+/** The pose a camera draws this canvas with (what the exact oracle should be asked about). */
+function viewOf(cam) {
+  return {
+    position: cam.position.toArray(),
+    rotation: cam.quaternion.toArray(),
+    fov_y_deg: cam.fov,
+    viewport: [Math.max(1, Math.round(canvas.clientWidth)), Math.max(1, Math.round(canvas.clientHeight))],
+    near: cam.near,
+    far: cam.far,
+  };
 }
 
 // --- test and scripting hooks --------------------------------------------------------
@@ -916,6 +970,7 @@ function hud() {
     fps: num("hud-fps"),
     state: $("hud-state").dataset.value,
     adapter: $("hud-adapter").dataset.value,
+    display: $("hud-display").dataset.value,
   };
 }
 
@@ -923,7 +978,11 @@ window.homcull = {
   ready,
   /** Sorted IDs of the objects whose meshes were visible in the last rendered frame. */
   drawnIds,
-  /** {ack, ids, stats} of the visible set drawn in the last rendered frame. */
+  /**
+   * {ack, ids, stats, view, lockstep} of the last rendered frame: the visible set drawn,
+   * the view it was drawn with ({position, rotation, fov_y_deg, viewport, near, far}) and
+   * whether that view is the answered pose's (lockstep) or the controls' camera.
+   */
   get lastFrame() {
     return app.rendered;
   },

@@ -152,8 +152,10 @@ async function main() {
   });
   page.on("pageerror", (e) => consoleErrors.push(`uncaught: ${e.message}`));
 
-  // Smoothing off: the drawn set must be exactly POST /cull's for the pose sent.
-  await page.goto(`${base}/?lookahead_ms=0&hold_ms=0`);
+  // Smoothing off: the drawn set must be exactly POST /cull's for the pose sent. Display
+  // "predict" (web/src/display.js): the current camera with the latest set, and the pose
+  // sent widened by the guard band ("auto" picks it too at lavapipe's round trips).
+  await page.goto(`${base}/?lookahead_ms=0&hold_ms=0&display=predict`);
   const renderer = await page.evaluate(() => {
     const gl = document.getElementById("view").getContext("webgl2");
     const ext = gl && gl.getExtension("WEBGL_debug_renderer_info");
@@ -288,7 +290,7 @@ async function main() {
           let set = null; // the pose set last tick, rendered this tick
           const tick = () => {
             const t = (performance.now() - t0) / 1000;
-            if (set) out.push({ ...set, drawn: h.drawnIds(), streamed: h.lastFrame.ids });
+            if (set) out.push({ ...set, drawn: h.drawnIds(), streamed: h.lastFrame.ids, view: h.lastFrame.view, lockstep: h.lastFrame.lockstep });
             if (t >= seconds) return resolve(out);
             set = { position: [40 + 1.4 * t, 1.7, 0], yaw: -90 + 20 * t, pitch: 0 };
             h.setPose(set.position, set.yaw, set.pitch);
@@ -305,13 +307,17 @@ async function main() {
     const missing = new Set();
     const late = [];
     for (const [k, f] of sample.entries()) {
+      // The view the frame was drawn with: the controls' camera (predict) or the pose the
+      // drawn set answers (lockstep).
+      const { position, rotation, fov_y_deg, viewport, near, far } = f.view;
+      if (!f.lockstep) {
+        position.forEach((v, i) => assert.ok(Math.abs(v - f.position[i]) < 1e-9, `${what}: predict draws the controls' camera`));
+        assert.deepEqual([fov_y_deg, ...viewport], [60, VIEWPORT.width, VIEWPORT.height]);
+      }
       const exact = await getJson(`${base}/v1/scenes/demo/cull`, {
         method: "POST",
         headers: { "content-type": "application/json" },
-        body: JSON.stringify({
-          pose: { position: f.position, rotation: yawPitchQuat(f.yaw, f.pitch), fov_y_deg: 60, viewport: [VIEWPORT.width, VIEWPORT.height], near: first.pose.near, far: first.pose.far },
-          options: { method: "exact" },
-        }),
+        body: JSON.stringify({ pose: { position, rotation, fov_y_deg, viewport, near, far }, options: { method: "exact" } }),
       });
       const drawn = new Set(f.drawn);
       for (const id of exact.visible) {
@@ -328,15 +334,15 @@ async function main() {
         `${popped} of ${oracleSeen} oracle-visible object sightings not drawn (${missing.size} distinct objects)`,
     );
     if (popped > 0) log(`${what}: late (drawn set one round trip behind the camera): ${late.join("; ")}`);
-    return { popped, oracleSeen, late };
+    return { popped, oracleSeen, late, record };
   };
   const plain = await walkAtNormalSpeed("no smoothing");
   // Turning is covered by the guard band; without smoothing, what moving reveals arrives
   // one round trip late (about 100 ms on lavapipe). This bound catches regressions.
   assert.ok(plain.popped <= 0.01 * plain.oracleSeen, `more than 1 % of oracle sightings not drawn while walking: ${plain.late.join("; ")}`);
 
-  // The viewer's default: smoothing on.
-  await page.goto(`${base}/`);
+  // The viewer's default smoothing on (display "predict", as "auto" picks on lavapipe).
+  await page.goto(`${base}/?display=predict`);
   await page.evaluate(() => window.homcull.ready);
   const hello = await page.evaluate(() => window.homcull.client.hello?.info?.smoothing ?? null);
   assert.deepEqual(hello, { lookahead_ms: 150, hold_ms: 300 }, "the viewer asks for its default smoothing");
@@ -345,6 +351,21 @@ async function main() {
   // objects (0–5 in ~2,300 sightings) and comparing them is noise; tests/ws_smoothing.rs
   // measures what the lookahead saves at 60 Hz. Here: smoothing keeps within 0.25 %.
   assert.ok(smooth.popped <= 0.0025 * smooth.oracleSeen, `smoothing on: more than 0.25 % of oracle sightings not drawn: ${smooth.late.join("; ")}`);
+
+  // Lockstep (what "auto" picks when the round trip fits in a frame): each set is drawn
+  // with the view of the pose it answers, so no object the oracle sees in the drawn
+  // view may be missing: not a bound, zero. The drawn view lags the walk by one round
+  // trip but must still walk.
+  await page.goto(`${base}/?display=lockstep`);
+  await page.evaluate(() => window.homcull.ready);
+  const lockstep = await walkAtNormalSpeed("lockstep");
+  const inLockstep = lockstep.record.filter((f) => f.lockstep);
+  assert.ok(inLockstep.length >= 0.9 * lockstep.record.length, `lockstep: only ${inLockstep.length} of ${lockstep.record.length} frames drawn in lockstep`);
+  const walked = inLockstep.at(-1).view.position[0] - inLockstep[0].view.position[0];
+  assert.ok(walked > 2, `lockstep: the drawn view walked only ${walked.toFixed(2)} m`);
+  assert.equal(lockstep.popped, 0, `lockstep: oracle sightings not drawn: ${lockstep.late.join("; ")}`);
+  const hudDisplay = await page.evaluate(() => window.homcull.hud().display);
+  assert.equal(hudDisplay, "lockstep", "the HUD names the display mode");
 
   // Screenshots: normal view, debug view, debug view from above.
   await page.evaluate(() => window.homcull.setPose([0, 1.7, 0], -90, 0));
