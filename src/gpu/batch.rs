@@ -13,7 +13,7 @@ use wgpu::util::DeviceExt;
 
 use super::oracle::OraclePass;
 use super::profile::{Pass, PassTimes, Stamps};
-use super::pyramid::PyramidPass;
+use super::pyramid::{PyramidPass, buffer_levels};
 use super::raster::{
     DEPTH_FORMAT, DrawList, ID_FORMAT, OCCLUSION_FORMAT, RasterKind, RasterPass, indirect_draws,
 };
@@ -37,89 +37,118 @@ struct SlotTargets {
     height: u32,
     slots: u32,
     layout: LevelLayout,
-    ids: wgpu::Texture,
+    /// The occlusion map of every slot (view depth of the nearest occluder, 0 uncovered).
+    occlusion: Layers,
     /// Per slot: the occluders' depth, kept for the refinement (the oracle reuses it).
-    depth_layers: Vec<wgpu::TextureView>,
-    occlusion_layers: Vec<wgpu::TextureView>,
-    id_layers: Vec<wgpu::TextureView>,
+    depth: Layers,
+    /// The oracle's ID buffers, made on the first exact batch (HOM never needs them).
+    ids: std::sync::OnceLock<Layers>,
+    /// Opacity and depth pyramids, levels 1.. ([`buffer_levels`]).
     opacity: wgpu::Buffer,
     pyramid_depth: wgpu::Buffer,
-    /// All occlusion layers as one array view (pyramid, test and refinement read it).
-    occlusion_array: wgpu::TextureView,
     /// The pyramid pass bound to these targets; nothing in it changes between batches.
     pyramid_bg: wgpu::BindGroup,
+}
+
+/// A texture array with a layer per slot, its per-layer views and one array view.
+struct Layers {
+    texture: wgpu::Texture,
+    layers: Vec<wgpu::TextureView>,
+    array: wgpu::TextureView,
+}
+
+impl Layers {
+    fn new(
+        device: &wgpu::Device,
+        label: &str,
+        format: wgpu::TextureFormat,
+        size: wgpu::Extent3d,
+    ) -> Self {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let layers = (0..size.depth_or_array_layers)
+            .map(|l| {
+                texture.create_view(&wgpu::TextureViewDescriptor {
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: l,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                })
+            })
+            .collect();
+        let array = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        Layers {
+            texture,
+            layers,
+            array,
+        }
+    }
 }
 
 impl SlotTargets {
     fn new(device: &wgpu::Device, pyramid: &PyramidPass, width: u32, height: u32) -> Self {
         let layout = LevelLayout::new(width, height);
-        let per_slot = (width as u64 * height as u64) * 12 + layout.total as u64 * 8;
+        let (_, pyramid_stride) = buffer_levels(&layout);
+        // Occlusion and depth layers (4 bytes a pixel each), opacity and depth pyramids
+        // (levels 1.., 4 bytes a texel each); the oracle's ID layers come on top when
+        // an exact batch first needs them.
+        let per_slot = (width as u64 * height as u64) * 8 + pyramid_stride as u64 * 8;
         let slots = (SLOT_MEMORY_BUDGET / per_slot).clamp(1, MAX_SLOTS as u64) as u32;
-        let tex = |label, format| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: slots,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                    | wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            })
-        };
-        let occlusion = tex("occlusion raster", OCCLUSION_FORMAT);
-        let ids = tex("oracle ids", ID_FORMAT);
-        let depth = tex("depth", DEPTH_FORMAT);
-        let layers = |t: &wgpu::Texture| -> Vec<wgpu::TextureView> {
-            (0..slots)
-                .map(|l| {
-                    t.create_view(&wgpu::TextureViewDescriptor {
-                        dimension: Some(wgpu::TextureViewDimension::D2),
-                        base_array_layer: l,
-                        array_layer_count: Some(1),
-                        ..Default::default()
-                    })
-                })
-                .collect()
-        };
+        let size = Self::extent(width, height, slots);
+        let occlusion = Layers::new(device, "occlusion raster", OCCLUSION_FORMAT, size);
+        let depth = Layers::new(device, "depth", DEPTH_FORMAT, size);
         let buf = |label| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
-                size: layout.total as u64 * slots as u64 * 4,
+                size: pyramid_stride as u64 * slots as u64 * 4,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             })
         };
         let opacity = buf("pyramid opacity");
         let pyramid_depth = buf("pyramid depth");
-        let occlusion_array = Self::array_view(&occlusion);
         let pyramid_bg =
-            pyramid.bind_group(device, &layout, &opacity, &pyramid_depth, &occlusion_array);
+            pyramid.bind_group(device, &layout, &opacity, &pyramid_depth, &occlusion.array);
         SlotTargets {
             width,
             height,
             slots,
-            occlusion_layers: layers(&occlusion),
-            id_layers: layers(&ids),
-            depth_layers: layers(&depth),
+            layout,
+            occlusion,
+            depth,
+            ids: std::sync::OnceLock::new(),
             opacity,
             pyramid_depth,
-            occlusion_array,
             pyramid_bg,
-            layout,
-            ids,
         }
     }
 
-    fn array_view(t: &wgpu::Texture) -> wgpu::TextureView {
-        t.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
+    fn extent(width: u32, height: u32, slots: u32) -> wgpu::Extent3d {
+        wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: slots,
+        }
+    }
+
+    /// The oracle's ID layers, made on first use.
+    fn ids(&self, device: &wgpu::Device) -> &Layers {
+        self.ids.get_or_init(|| {
+            let size = Self::extent(self.width, self.height, self.slots);
+            Layers::new(device, "oracle ids", ID_FORMAT, size)
         })
     }
 }
@@ -405,7 +434,7 @@ impl GpuBackend {
             };
             pass.record_raster(
                 encoder,
-                &t.depth_layers[(p - first) as usize],
+                &t.depth.layers[(p - first) as usize],
                 pose_bg,
                 &r.raster_bg,
                 p,
@@ -460,8 +489,9 @@ impl GpuBackend {
     }
 
     /// Runs the occluder raster and pyramid of one group of plans (at most one group
-    /// of slots) and returns the opacity and depth pyramids (slot-strided). For
-    /// GPU-vs-CPU tests.
+    /// of slots) and returns the opacity and depth pyramids in the CPU twin's layout
+    /// (`LevelLayout`, one after another per pose; level 0 read back from the occlusion
+    /// map). For GPU-vs-CPU tests and debug images.
     pub fn pyramids(
         &mut self,
         plans: &[PosePlan],
@@ -477,18 +507,66 @@ impl GpuBackend {
         }
         self.record_with(guard.as_ref().expect("targets exist"), plans, s, false)?;
         let t = guard.as_ref().expect("targets exist after a batch");
-        let size = t.layout.total as u64 * plans.len() as u64 * 4;
+        let n = plans.len();
+        let (_, stride) = buffer_levels(&t.layout);
+        let read = |buffer| -> Result<Vec<f32>, GpuError> {
+            let enc = self.ctx.device.create_command_encoder(&Default::default());
+            let bytes = self.read_buffer(enc, buffer, stride as u64 * n as u64 * 4)?;
+            Ok(bytemuck::pod_collect_to_vec(&bytes))
+        };
+        let (upper_opacity, upper_depth) = (read(&t.opacity)?, read(&t.pyramid_depth)?);
+        let level0 = self.read_occlusion(t, n as u32)?;
+        let (w, h) = t.layout.dims[0];
+        let pixels = (w * h) as usize;
+        let upper = t.layout.total as usize - pixels;
+        let (mut opacity, mut depth) = (Vec::new(), Vec::new());
+        for k in 0..n {
+            let d0 = &level0[k * pixels..][..pixels];
+            opacity.extend(d0.iter().map(|&d| if d > 0.0 { 1.0 } else { 0.0 }));
+            depth.extend_from_slice(d0);
+            let at = k * stride as usize;
+            opacity.extend_from_slice(&upper_opacity[at..at + upper]);
+            depth.extend_from_slice(&upper_depth[at..at + upper]);
+        }
+        Ok((opacity, depth))
+    }
+
+    /// The first `layers` occlusion-map layers (view depth, 0 where uncovered), one
+    /// `width × height` image after another.
+    fn read_occlusion(&self, t: &SlotTargets, layers: u32) -> Result<Vec<f32>, GpuError> {
+        let (w, h) = (t.width, t.height);
+        let row = (w * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+        let size = row as u64 * h as u64 * layers as u64;
+        let buffer = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("occlusion map readback"),
+            size,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-        self.passes
-            .pyramid
-            .record_level0(&mut enc, &t.pyramid_bg, &t.layout, plans.len() as u32);
-        let opacity = self.read_buffer(enc, &t.opacity, size)?;
-        let enc = self.ctx.device.create_command_encoder(&Default::default());
-        let depth = self.read_buffer(enc, &t.pyramid_depth, size)?;
-        Ok((
-            bytemuck::cast_slice(&opacity).to_vec(),
-            bytemuck::cast_slice(&depth).to_vec(),
-        ))
+        enc.copy_texture_to_buffer(
+            t.occlusion.texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(row),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: layers,
+            },
+        );
+        let bytes = self.read_buffer(enc, &buffer, size)?;
+        let padded: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
+        Ok(padded
+            .chunks_exact(row as usize / 4)
+            .flat_map(|r| &r[..w as usize])
+            .copied()
+            .collect())
     }
 
     fn record_and_read(
@@ -627,7 +705,7 @@ impl GpuBackend {
         mark(&mut encoder, None);
 
         if exact {
-            let ids_view = SlotTargets::array_view(&t.ids);
+            let ids = t.ids(device);
             let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("oracle"),
                 layout: &self.passes.oracle.layout,
@@ -638,7 +716,7 @@ impl GpuBackend {
                     },
                     wgpu::BindGroupEntry {
                         binding: 1,
-                        resource: wgpu::BindingResource::TextureView(&ids_view),
+                        resource: wgpu::BindingResource::TextureView(&ids.array),
                     },
                     wgpu::BindGroupEntry {
                         binding: 2,
@@ -651,8 +729,8 @@ impl GpuBackend {
                     self.passes.raster.record(
                         &mut encoder,
                         RasterKind::ObjectIds,
-                        &t.id_layers[(p - a) as usize],
-                        &t.depth_layers[(p - a) as usize],
+                        &ids.layers[(p - a) as usize],
+                        &t.depth.layers[(p - a) as usize],
                         &pose_bg,
                         p,
                         &self.scene,
@@ -730,20 +808,20 @@ impl GpuBackend {
                     },
                     wgpu::BindGroupEntry {
                         binding: 9,
-                        resource: wgpu::BindingResource::TextureView(&t.occlusion_array),
+                        resource: wgpu::BindingResource::TextureView(&t.occlusion.array),
                     },
                 ],
             });
             let refine = s
                 .refines()
-                .then(|| self.refine_inputs(plans, &groups, &mask, &t.occlusion_array, words));
+                .then(|| self.refine_inputs(plans, &groups, &mask, &t.occlusion.array, words));
             for (g, &(a, b)) in groups.iter().enumerate() {
                 for p in a..b {
                     self.passes.raster.record(
                         &mut encoder,
                         RasterKind::OccluderDepth,
-                        &t.occlusion_layers[(p - a) as usize],
-                        &t.depth_layers[(p - a) as usize],
+                        &t.occlusion.layers[(p - a) as usize],
+                        &t.depth.layers[(p - a) as usize],
                         &pose_bg,
                         p,
                         &self.scene,

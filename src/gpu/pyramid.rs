@@ -1,7 +1,8 @@
 //! Occlusion pyramid pass: two levels per dispatch (`pyramid.wgsl`), every pose slot
 //! of a group at once (z = slot), so a 960×540 pyramid of 11 levels takes five
-//! dispatches. Level 0 stays in the raster texture, which the test pass reads; its
-//! place in the buffers is filled only for readback ([`PyramidPass::record_level0`]).
+//! dispatches. Level 0 stays in the raster texture, which the test pass reads; the
+//! pyramid buffers hold levels 1.. only ([`buffer_levels`]: three quarters of the
+//! pixels' worth of memory less per slot than the CPU layout, which keeps level 0).
 //! CPU twin: `hom/pyramid.rs`; layout shared through [`LevelLayout`].
 
 use wgpu::util::DeviceExt;
@@ -30,6 +31,24 @@ struct Levels {
     dims: [[u32; 4]; MAX_LEVELS],
 }
 
+/// Levels 1.. of `layout` as the GPU buffers hold them: `[width, height, offset, 0]`
+/// per level (offsets counted from level 1; level 0's is unused, it is read from the
+/// occlusion map), and the per-pose stride in texels (at least 1, so that a 1×1
+/// viewport still gets a buffer).
+pub(crate) fn buffer_levels(layout: &LevelLayout) -> ([[u32; 4]; MAX_LEVELS], u32) {
+    let level0 = layout.dims[0].0 * layout.dims[0].1;
+    let mut dims = [[0; 4]; MAX_LEVELS];
+    for (l, d) in dims.iter_mut().enumerate().take(layout.levels()) {
+        let offset = if l == 0 {
+            0
+        } else {
+            layout.offsets[l] - level0
+        };
+        *d = [layout.dims[l].0, layout.dims[l].1, offset, 0];
+    }
+    (dims, (layout.total - level0).max(1))
+}
+
 /// The levels each dispatch reads: 0, 2, 4, … while a level follows.
 fn steps(layout: &LevelLayout) -> Vec<Step> {
     (0..layout.levels() - 1)
@@ -44,7 +63,6 @@ fn steps(layout: &LevelLayout) -> Vec<Step> {
 pub struct PyramidPass {
     layout: wgpu::BindGroupLayout,
     downsample: wgpu::ComputePipeline,
-    export_level0: wgpu::ComputePipeline,
 }
 
 impl PyramidPass {
@@ -62,7 +80,6 @@ impl PyramidPass {
         );
         PyramidPass {
             downsample: ctx.compute_pipeline(&pl, &module, "downsample"),
-            export_level0: ctx.compute_pipeline(&pl, &module, "export_level0"),
             layout,
         }
     }
@@ -77,13 +94,10 @@ impl PyramidPass {
         depth: &wgpu::Buffer,
         raster: &wgpu::TextureView,
     ) -> wgpu::BindGroup {
-        let mut dims = [[0; 4]; MAX_LEVELS];
-        for (l, d) in dims.iter_mut().enumerate().take(layout.levels()) {
-            *d = [layout.dims[l].0, layout.dims[l].1, layout.offsets[l], 0];
-        }
+        let (dims, slot_stride) = buffer_levels(layout);
         let levels = Levels {
             count: layout.levels() as u32,
-            slot_stride: layout.total,
+            slot_stride,
             _pad: [0; 2],
             dims,
         };
@@ -152,27 +166,5 @@ impl PyramidPass {
                 slots,
             );
         }
-    }
-
-    /// Records the copy of level 0 from the raster into the pyramid buffers, which
-    /// only a readback of the whole pyramid needs.
-    pub fn record_level0(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        bind_group: &wgpu::BindGroup,
-        layout: &LevelLayout,
-        slots: u32,
-    ) {
-        let (w, h) = layout.dims[0];
-        record_grid(
-            encoder,
-            "pyramid level 0",
-            &self.export_level0,
-            bind_group,
-            0,
-            w,
-            h,
-            slots,
-        );
     }
 }

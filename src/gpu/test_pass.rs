@@ -3,6 +3,7 @@
 
 use homcull_proto::{DebVariant, Method};
 
+use super::pyramid::buffer_levels;
 use super::{GpuContext, record_wide, storage_entry, texture_array_entry, uniform_entry};
 use crate::hom::{MAX_LEVELS, pyramid::LevelLayout};
 
@@ -34,11 +35,10 @@ impl TestConfig {
         deb_rows: u32,
         words_per_pose: u32,
     ) -> Self {
-        let mut dims = [[0; 4]; MAX_LEVELS];
+        let (dims, slot_stride) = buffer_levels(layout);
         let mut thr = [[0.0; 4]; MAX_LEVELS];
-        for l in 0..layout.levels() {
-            dims[l] = [layout.dims[l].0, layout.dims[l].1, layout.offsets[l], 0];
-            thr[l][0] = thresholds[l];
+        for (t, &o) in thr.iter_mut().zip(thresholds).take(layout.levels()) {
+            t[0] = o;
         }
         TestConfig {
             levels: layout.levels() as u32,
@@ -52,7 +52,7 @@ impl TestConfig {
             deb_cols,
             deb_rows,
             words_per_pose,
-            slot_stride: layout.total,
+            slot_stride,
             dims,
             thresholds: thr,
         }

@@ -1,8 +1,8 @@
 // Occlusion pyramid, two levels per dispatch: each invocation reduces a 4×4 block of
 // the source level to 2×2 texels of the next level and 1 of the one after. The first
-// dispatch reads level 0 straight from the occluder raster (which is never copied into
-// the pyramid buffers: the test reads it there too); later ones read the last level
-// written. Each 2×2 reduction averages opacity and takes the max depth; texels outside
+// dispatch reads level 0 straight from the occluder raster (the pyramid buffers hold
+// levels 1.. only: the test reads level 0 from the raster too); later ones read the
+// last level written. Each 2×2 reduction averages opacity and takes the max depth; texels outside
 // a level are transparent, never opaque. A texel outside its level comes out 0 (all
 // its children are outside theirs), so only writes need bounds. CPU twin:
 // `hom/pyramid.rs` (same order of additions, so equal bits).
@@ -96,18 +96,4 @@ fn downsample(@builtin(global_invocation_id) g: vec3<u32>) {
     }
     // Level l + 1: one texel.
     store(slot, l + 1u, g.x, g.y, combine(q[0], q[1], q[2], q[3]));
-}
-
-// Level 0 into the buffers, for readback only (tests, debug images): the test pass
-// reads level 0 from the raster itself.
-@compute @workgroup_size(8, 8, 1)
-fn export_level0(@builtin(global_invocation_id) g: vec3<u32>) {
-    let dim = lv.dims[0];
-    if g.x >= dim.x || g.y >= dim.y {
-        return;
-    }
-    let v = level0(g.z, g.x, g.y);
-    let i = index(g.z, 0u, g.x, g.y);
-    opacity[i] = v.x;
-    depth[i] = v.y;
 }
