@@ -8,14 +8,15 @@
 // the oracle tests never misses an object that view shows, so nothing can pop. The price
 // of lockstep is that the view lags the controls by one round trip, which nobody notices
 // when the round trip fits in a frame (a GPU server nearby: ~2 ms) and everybody
-// notices at 100 ms (a software rasterizer). "auto" picks by the measured round trip.
+// notices at 100 ms. "auto" picks by the measured round trip: lockstep up to about two
+// frames at 60 Hz, where a walk still feels direct.
 
 export const DISPLAY_MODES = ["auto", "lockstep", "predict"];
 
 /** "auto" enters lockstep when the round trip p50 is at most this (ms)… */
-export const LOCKSTEP_ENTER_MS = 12;
+export const LOCKSTEP_ENTER_MS = 34;
 /** …and leaves it when the p50 exceeds this (hysteresis: no flapping near the bound). */
-export const LOCKSTEP_LEAVE_MS = 24;
+export const LOCKSTEP_LEAVE_MS = 50;
 
 /** The display mode named by `?display=` (anything else: "auto"). */
 export function parseDisplayMode(name) {

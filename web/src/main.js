@@ -2,12 +2,13 @@
 // server and draws exactly the visible set the server answers.
 
 import * as THREE from "three";
-import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 
 import { HomcullClient, State } from "./client.js";
-import { ViewLog, parseDisplayMode, useLockstep } from "./display.js";
+import { LOCKSTEP_ENTER_MS, LOCKSTEP_LEAVE_MS, ViewLog, parseDisplayMode, useLockstep } from "./display.js";
 import { flatten, mapObjects } from "./scene-map.js";
+import { fetchJson, loadGlb } from "./loading.js";
+import { debugMaterials, prepareMaterials } from "./materials.js";
 
 const EYE_HEIGHT = 1.7;
 const WALK_SPEED = 5; // m/s; Shift runs at 4x
@@ -145,139 +146,6 @@ const ready = new Promise((res, rej) => {
 });
 ready.catch(() => {}); // reported in the page; tests await it themselves
 
-// --- materials -----------------------------------------------------------------------
-
-const palette = {
-  ground_block: 0x8f9a86,
-  ground_street: 0x55595e,
-  ground_crossing: 0x676b70,
-  ground: 0x8f9a86,
-  building_a: 0xd8cbb3,
-  building_b: 0xc9b59b,
-  building_c: 0xb9c2c9,
-  building_d: 0xe0d6c6,
-  building_e: 0xa9a39a,
-  building_f: 0xcfc0a8,
-  building_g: 0xbcb6ae,
-  building_h: 0xd3c5b6,
-  building: 0xcdbfa9,
-  tree: 0x4f7f3a,
-  car: 0x8a3b3b,
-  bench: 0x7a5a3a,
-};
-const materialCache = new Map();
-
-function paletteMaterial(name) {
-  const key = String(name || "")
-    .toLowerCase()
-    .replace(/(_\d+)+$/, "");
-  const prefix = Object.keys(palette)
-    .filter((k) => key.startsWith(k))
-    .sort((a, b) => b.length - a.length)[0];
-  const color = prefix ? palette[prefix] : 0xc8c8c8;
-  if (!materialCache.has(color)) {
-    materialCache.set(color, new THREE.MeshLambertMaterial({ color, flatShading: true, side: THREE.DoubleSide }));
-  }
-  return materialCache.get(color);
-}
-
-const debugMaterials = {
-  occluder: new THREE.MeshLambertMaterial({ color: 0x3f7fe0, flatShading: true, side: THREE.DoubleSide }),
-  drawn: new THREE.MeshLambertMaterial({ color: 0xf4f4f4, flatShading: true, side: THREE.DoubleSide }),
-  culled: new THREE.MeshBasicMaterial({ color: 0xe02020, wireframe: true, transparent: true, opacity: 0.4, depthTest: false }),
-};
-
-function prepareMaterials(gltf, meshesById) {
-  const assoc = gltf.parser.associations;
-  meshesById.forEach((meshes, id) => {
-    const row = app.objects[id];
-    for (const m of meshes) {
-      const hasNormals = Boolean(m.geometry?.attributes?.normal);
-      const mats = Array.isArray(m.material) ? m.material : [m.material];
-      // GLTFLoader's default material (primitives without one) has no glTF material index;
-      // its flat-shaded clones are associated with `undefined`.
-      const isDefault = mats.every((mat) => !mat || assoc.get(mat)?.materials === undefined);
-      if (isDefault && m.isMesh) {
-        m.material = paletteMaterial(row?.name ?? m.name);
-      } else if (!hasNormals && m.isMesh) {
-        m.material = mats.map((mat) => {
-          const key = `flat:${mat.uuid}`;
-          if (!materialCache.has(key)) {
-            const c = mat.clone();
-            c.flatShading = true;
-            materialCache.set(key, c);
-          }
-          return materialCache.get(key);
-        });
-        if (m.material.length === 1) m.material = m.material[0];
-      }
-      m.userData.homcullMaterial = m.material;
-    }
-  });
-}
-
-// --- loading -------------------------------------------------------------------------
-
-async function fetchJson(url, what) {
-  let r;
-  try {
-    r = await fetch(url);
-  } catch (e) {
-    throw new Error(`cannot reach the homcull server at ${location.origin} (${e.message}); is it running?`);
-  }
-  let body = null;
-  try {
-    body = await r.json();
-  } catch {
-    /* not JSON */
-  }
-  if (!r.ok) {
-    const msg = body?.error?.message ?? `HTTP ${r.status}`;
-    const err = new Error(`${what}: ${msg}`);
-    err.status = r.status;
-    err.code = body?.error?.code;
-    throw err;
-  }
-  return body;
-}
-
-async function loadGlb(url, onProgress) {
-  let r;
-  try {
-    r = await fetch(url);
-  } catch (e) {
-    throw new Error(`cannot reach the homcull server at ${location.origin} (${e.message})`);
-  }
-  if (!r.ok) {
-    let msg = `HTTP ${r.status}`;
-    try {
-      msg = (await r.json()).error.message;
-    } catch {
-      /* keep the status */
-    }
-    throw new Error(`scene GLB: ${msg}`);
-  }
-  const total = Number(r.headers.get("content-length")) || 0;
-  let buffer;
-  if (r.body && total) {
-    const reader = r.body.getReader();
-    const out = new Uint8Array(total);
-    let got = 0;
-    for (;;) {
-      const { done, value } = await reader.read();
-      if (done) break;
-      if (got + value.length > out.length) throw new Error("scene GLB is longer than its Content-Length");
-      out.set(value, got);
-      got += value.length;
-      onProgress(got, total);
-    }
-    buffer = out.buffer.slice(0, got);
-  } else {
-    buffer = await r.arrayBuffer();
-  }
-  return new GLTFLoader().parseAsync(buffer, "");
-}
-
 async function start() {
   if (!renderer) {
     rejectReady(new Error("WebGL is not available"));
@@ -326,7 +194,7 @@ async function start() {
         `the scene GLB has ${meshesById.length} mesh nodes but the server lists ${objects.length} objects: object IDs cannot be mapped to meshes`,
       );
     }
-    prepareMaterials(gltf, meshesById);
+    prepareMaterials(gltf, meshesById, app.objects);
     flatten(gltf.scene, meshesById, objectsRoot);
     app.meshesById = meshesById;
     for (const meshes of meshesById) for (const m of meshes) m.visible = false;
@@ -725,7 +593,7 @@ function updateHud() {
   $("hud-display").title =
     "lockstep: each visible set is drawn with the view of the pose it answers (nothing pops; the view lags by one round trip). " +
     "predict: the latest set is drawn with the current camera (the guard band and smoothing cover the motion). " +
-    "auto: lockstep while the round trip p50 is under 12 ms.";
+    `auto: lockstep while the round trip p50 is at most ${LOCKSTEP_ENTER_MS} ms (until it exceeds ${LOCKSTEP_LEAVE_MS} ms).`;
   const notes = [];
   if (!app.culling) notes.push("Culling is off: everything is drawn.");
   if (app.debug)
