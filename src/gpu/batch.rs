@@ -28,7 +28,9 @@ use crate::hom::pyramid::LevelLayout;
 
 /// Most poses sharing the per-slot targets at once.
 pub const MAX_SLOTS: u32 = 16;
-/// Memory the per-slot targets may take, bytes; fewer slots at large viewports.
+/// Memory the per-slot targets may take, bytes; fewer slots at large viewports. The
+/// oracle's ID buffers, made only once an exact batch runs, come on top (half as much
+/// again at most: 4 of the 8 bytes a pixel the occlusion map and depth take).
 const SLOT_MEMORY_BUDGET: u64 = 256 << 20;
 
 /// Per-slot render targets and pyramid buffers for one viewport size.
