@@ -101,18 +101,24 @@ fn run(mut rx: mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool) {
     tracing::debug!("GPU worker stopped");
 }
 
-/// Key of jobs that can share one submission: same scene, same options.
+/// Every field of the options, as a key: jobs share a submission only if they would
+/// get the same answer from it.
+fn options_key(o: &CullOptions) -> (u8, u8, u32, bool) {
+    let CullOptions {
+        method,
+        threshold,
+        deb,
+        refine,
+    } = *o; // destructured: a new option field fails to compile until it is keyed
+    (method as u8, deb as u8, threshold.to_bits(), refine)
+}
+
+/// Jobs grouped by what can share one submission: same scene, same options.
 fn group_jobs(jobs: Vec<CullJob>) -> Vec<Vec<CullJob>> {
-    let mut groups: HashMap<(usize, u8, u8, u32), Vec<CullJob>> = HashMap::new();
+    let mut groups: HashMap<(usize, (u8, u8, u32, bool)), Vec<CullJob>> = HashMap::new();
     let mut order = Vec::new();
     for job in jobs {
-        let o = job.options;
-        let key = (
-            Arc::as_ptr(&job.scene) as usize,
-            o.method as u8,
-            o.deb as u8,
-            o.threshold.to_bits(),
-        );
+        let key = (Arc::as_ptr(&job.scene) as usize, options_key(&job.options));
         if !groups.contains_key(&key) {
             order.push(key);
         }
@@ -195,4 +201,38 @@ fn run_one_by_one(job: CullJob) {
         }
     }
     let _ = job.reply.send(Ok(out));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use homcull_proto::{DebVariant, Method};
+
+    #[test]
+    fn jobs_differing_in_any_option_do_not_share_a_submission() {
+        let base = CullOptions::default();
+        let variants = [
+            CullOptions {
+                method: Method::Hzb,
+                ..base
+            },
+            CullOptions {
+                threshold: 0.9,
+                ..base
+            },
+            CullOptions {
+                deb: DebVariant::Tiles,
+                ..base
+            },
+            // A stream (box test) and a REST call (refined) at the same moment.
+            CullOptions {
+                refine: false,
+                ..base
+            },
+        ];
+        for v in variants {
+            assert_ne!(options_key(&v), options_key(&base), "{v:?}");
+        }
+        assert_eq!(options_key(&base), options_key(&CullOptions::default()));
+    }
 }
