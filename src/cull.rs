@@ -108,6 +108,17 @@ pub struct PosePlan {
 
 /// Frustum culling, test-box selection, occluder selection and box DEB for one pose.
 pub fn plan(prep: &PreparedScene, cam: &Camera, s: &CullSettings) -> PosePlan {
+    plan_preferring(prep, cam, s, &[])
+}
+
+/// [`plan`] whose occluder selection takes the objects in `prefer` (ascending IDs)
+/// first ([`OccluderDb::select_preferring`]).
+pub fn plan_preferring(
+    prep: &PreparedScene,
+    cam: &Camera,
+    s: &CullSettings,
+    prefer: &[u32],
+) -> PosePlan {
     let mut candidates = Vec::new();
     prep.bvh.frustum_query(cam, |i| candidates.push(i));
     candidates.sort_unstable();
@@ -120,7 +131,9 @@ pub fn plan(prep: &PreparedScene, cam: &Camera, s: &CullSettings) -> PosePlan {
             test_boxes
                 .extend((a..b).filter(|&i| cam.intersects(&prep.scene.boxes[i as usize].aabb)));
         }
-        occluders = prep.occluders.select(&prep.scene, cam, s.budget_triangles);
+        occluders = prep
+            .occluders
+            .select_preferring(&prep.scene, cam, s.budget_triangles, prefer);
     }
     let variant = if s.options.method == Method::Hom {
         s.options.deb
@@ -185,12 +198,28 @@ pub trait Culler {
         cams: &[Camera],
         s: &CullSettings,
     ) -> Result<Vec<PoseResult>, CullError> {
+        self.cull_preferring(prep, cams, s, &[])
+    }
+
+    /// [`Culler::cull`] where pose k's occluder selection takes the objects of
+    /// `prefer[k]` first (ascending IDs, e.g. what the same client saw at its previous
+    /// pose; see [`plan_preferring`]). Poses past the end of `prefer` prefer nothing.
+    fn cull_preferring(
+        &mut self,
+        prep: &PreparedScene,
+        cams: &[Camera],
+        s: &CullSettings,
+        prefer: &[&[u32]],
+    ) -> Result<Vec<PoseResult>, CullError> {
         s.validate()?;
         let start = Instant::now();
         // Planning is independent per pose: spread it over the CPU cores.
         let plans: Vec<PosePlan> = {
             use rayon::prelude::*;
-            cams.par_iter().map(|c| plan(prep, c, s)).collect()
+            cams.par_iter()
+                .enumerate()
+                .map(|(k, c)| plan_preferring(prep, c, s, prefer.get(k).copied().unwrap_or(&[])))
+                .collect()
         };
         tracing::debug!(
             target: "homcull::timing",

@@ -72,4 +72,15 @@ impl Engine {
     ) -> Result<Vec<PoseResult>, CullError> {
         self.backend.cull(&self.prepared, cams, settings)
     }
+
+    /// See [`Culler::cull_preferring`].
+    pub fn cull_preferring(
+        &mut self,
+        cams: &[Camera],
+        settings: &CullSettings,
+        prefer: &[&[u32]],
+    ) -> Result<Vec<PoseResult>, CullError> {
+        self.backend
+            .cull_preferring(&self.prepared, cams, settings, prefer)
+    }
 }

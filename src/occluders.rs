@@ -82,6 +82,21 @@ impl OccluderDb {
     /// An occluder that alone would overrun the remaining budget is skipped, so smaller
     /// ones behind it can still fill the budget.
     pub fn select(&self, scene: &Scene, cam: &Camera, budget_triangles: u32) -> OccluderSelection {
+        self.select_preferring(scene, cam, budget_triangles, &[])
+    }
+
+    /// [`OccluderDb::select`], but the occluders in `prefer` (ascending IDs: e.g. the
+    /// objects visible from the previous pose of a walk) come first, nearest first,
+    /// then the others (DESIGN.md §4, temporal coherence: hidden occluders waste the
+    /// budget). Which objects are selected changes, never whether culling is
+    /// conservative: any subset of the objects' own triangles is a valid occluder set.
+    pub fn select_preferring(
+        &self,
+        scene: &Scene,
+        cam: &Camera,
+        budget_triangles: u32,
+        prefer: &[u32],
+    ) -> OccluderSelection {
         let mut found: Vec<(f32, u32)> = Vec::new();
         self.bvh.frustum_query(cam, |slot| {
             let id = self.ids[slot as usize];
@@ -91,7 +106,12 @@ impl OccluderDb {
                 .distance_squared(cam.position);
             found.push((d, id));
         });
-        found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let later = |id: u32| prefer.binary_search(&id).is_err();
+        found.sort_unstable_by(|a, b| {
+            (later(a.1).cmp(&later(b.1)))
+                .then(a.0.total_cmp(&b.0))
+                .then(a.1.cmp(&b.1))
+        });
         let mut sel = OccluderSelection::default();
         for (_, id) in found {
             let t = scene.objects[id as usize].triangles();
@@ -137,5 +157,10 @@ mod tests {
         assert_eq!(all.triangles, 4);
         let one = db.select(&scene, &cam, 3);
         assert_eq!(one.ids, vec![1]);
+        // Preferring the far quad (seen last pose) spends the budget on it first.
+        let preferred = db.select_preferring(&scene, &cam, 3, &[0]);
+        assert_eq!(preferred.ids, vec![0]);
+        let both = db.select_preferring(&scene, &cam, 100, &[0]);
+        assert_eq!(both.ids, vec![0, 1]);
     }
 }

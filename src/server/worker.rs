@@ -26,6 +26,9 @@ pub struct CullJob {
     pub scene: Arc<SceneEntry>,
     pub cams: Vec<Camera>,
     pub options: CullOptions,
+    /// Objects (ascending IDs) whose occluders every pose of the job selects first
+    /// (`Culler::cull_preferring`): what a stream's client saw at its previous pose.
+    pub prefer: Option<Arc<Vec<u32>>>,
     pub reply: oneshot::Sender<Result<Vec<PoseResult>, ApiError>>,
 }
 
@@ -43,11 +46,24 @@ impl WorkerHandle {
         cams: Vec<Camera>,
         options: CullOptions,
     ) -> Result<Vec<PoseResult>, ApiError> {
+        self.cull_preferring(scene, cams, options, None).await
+    }
+
+    /// [`WorkerHandle::cull`] with the occluders of `prefer` (ascending IDs) selected
+    /// first for every pose.
+    pub async fn cull_preferring(
+        &self,
+        scene: Arc<SceneEntry>,
+        cams: Vec<Camera>,
+        options: CullOptions,
+        prefer: Option<Arc<Vec<u32>>>,
+    ) -> Result<Vec<PoseResult>, ApiError> {
         let (reply, rx) = oneshot::channel();
         let job = CullJob {
             scene,
             cams,
             options,
+            prefer,
             reply,
         };
         self.tx.try_send(job).map_err(|e| match e {
@@ -101,9 +117,12 @@ fn run(mut rx: mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool) {
     tracing::debug!("GPU worker stopped");
 }
 
+/// Method, DEB, threshold bits, refine.
+type OptionsKey = (u8, u8, u32, bool);
+
 /// Every field of the options, as a key: jobs share a submission only if they would
 /// get the same answer from it.
-fn options_key(o: &CullOptions) -> (u8, u8, u32, bool) {
+fn options_key(o: &CullOptions) -> OptionsKey {
     let CullOptions {
         method,
         threshold,
@@ -115,7 +134,7 @@ fn options_key(o: &CullOptions) -> (u8, u8, u32, bool) {
 
 /// Jobs grouped by what can share one submission: same scene, same options.
 fn group_jobs(jobs: Vec<CullJob>) -> Vec<Vec<CullJob>> {
-    let mut groups: HashMap<(usize, (u8, u8, u32, bool)), Vec<CullJob>> = HashMap::new();
+    let mut groups: HashMap<(usize, OptionsKey), Vec<CullJob>> = HashMap::new();
     let mut order = Vec::new();
     for job in jobs {
         let key = (Arc::as_ptr(&job.scene) as usize, options_key(&job.options));
@@ -136,12 +155,13 @@ fn cull_batch(
     scene: &SceneEntry,
     cams: &[Camera],
     options: CullOptions,
+    prefer: &[&[u32]],
 ) -> Result<Vec<PoseResult>, ApiError> {
     let start = Instant::now();
     let out = std::panic::catch_unwind(AssertUnwindSafe(|| {
         let mut engine = scene.engine.lock().unwrap_or_else(|p| p.into_inner());
         let settings = engine.settings(options);
-        engine.cull(cams, &settings)
+        engine.cull_preferring(cams, &settings, prefer)
     }));
     let secs = start.elapsed().as_secs_f64();
     metrics::histogram!("homcull_gpu_batch_poses").record(cams.len() as f64);
@@ -172,7 +192,11 @@ fn run_group(group: Vec<CullJob>) {
     let scene = group[0].scene.clone();
     let options = group[0].options;
     let cams: Vec<Camera> = group.iter().flat_map(|j| j.cams.iter().cloned()).collect();
-    match cull_batch(&scene, &cams, options) {
+    let prefer: Vec<&[u32]> = group
+        .iter()
+        .flat_map(|j| std::iter::repeat_n(preferred(j), j.cams.len()))
+        .collect();
+    match cull_batch(&scene, &cams, options, &prefer) {
         Ok(mut results) => {
             // Hand each job its slice, in order.
             for job in group.into_iter().rev() {
@@ -188,11 +212,17 @@ fn run_group(group: Vec<CullJob>) {
     }
 }
 
+/// The objects a job's poses select occluders from first (none: nearest first).
+fn preferred(job: &CullJob) -> &[u32] {
+    job.prefer.as_deref().map_or(&[], Vec::as_slice)
+}
+
 /// Without batching: one submission per pose (what batching is measured against).
 fn run_one_by_one(job: CullJob) {
     let mut out = Vec::with_capacity(job.cams.len());
     for cam in &job.cams {
-        match cull_batch(&job.scene, std::slice::from_ref(cam), job.options) {
+        let prefer = [preferred(&job)];
+        match cull_batch(&job.scene, std::slice::from_ref(cam), job.options, &prefer) {
             Ok(mut r) => out.append(&mut r),
             Err(e) => {
                 let _ = job.reply.send(Err(e));

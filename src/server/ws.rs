@@ -67,6 +67,11 @@ pub struct StreamQuery {
     /// Keep each object in the streamed set this long after a cull last returned it
     /// (0 = off, the default; at most 10000). Stops flicker of tiny distant objects.
     pub hold_ms: Option<u32>,
+    /// Select first, as occluders, the objects streamed for the previous pose
+    /// (temporal coherence; default false). Matters only when the occluder budget
+    /// cannot take every in-frustum occluder; then the set may be smaller than
+    /// `POST /cull`'s for the same pose (never missing what the pose shows).
+    pub seen_first: Option<bool>,
 }
 
 /// How a stream shapes its sets (see [`super::motion`]); both off by default, when the
@@ -116,6 +121,7 @@ pub async fn stream(
             ),
         ));
     }
+    let seen_first = q.seen_first.unwrap_or(false);
     let scene = state.scene(&id)?;
     let slot = state.try_ws_slot().ok_or_else(|| {
         ApiError::overloaded(format!(
@@ -126,7 +132,9 @@ pub async fn stream(
     Ok(ws
         .max_message_size(MAX_CLIENT_MESSAGE)
         .max_frame_size(MAX_CLIENT_MESSAGE)
-        .on_upgrade(move |socket| client(socket, state, scene, options, smoothing, slot)))
+        .on_upgrade(move |socket| {
+            client(socket, state, scene, options, smoothing, seen_first, slot)
+        }))
 }
 
 /// A pose waiting to be culled.
@@ -177,6 +185,7 @@ async fn client(
     scene: Arc<SceneEntry>,
     options: CullOptions,
     smoothing: Smoothing,
+    seen_first: bool,
     _slot: WsClientSlot,
 ) {
     let (sink, mut incoming) = socket.split();
@@ -193,6 +202,7 @@ async fn client(
             "cpu_fallback": state.gpu.is_none(),
             "options": options,
             "smoothing": smoothing,
+            "seen_first": seen_first,
             "full_every": state.config.full_every,
             "max_fps": state.config.ws_max_fps,
         })
@@ -273,9 +283,10 @@ async fn client(
                 cams.push(cam);
             }
         }
+        let prefer = seen_first.then(|| Arc::new(last_set.clone()));
         let answer = state
             .worker
-            .cull(scene.clone(), cams, options)
+            .cull_preferring(scene.clone(), cams, options, prefer)
             .await
             .map(|results| smoothed(results, &mut held, &p.cam, &scene));
         seq = seq.wrapping_add(1);

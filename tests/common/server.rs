@@ -101,8 +101,6 @@ impl TestServer {
     }
 }
 
-/// A street-level walk through the demo city: along the x axis on the z = 0 street from
-/// x = −150 m to 150 m, eye 1.7 m up, looking roughly along the walk with a slow sway.
 /// `POST url` with a JSON body; the answer's JSON body (panics on any failure).
 pub async fn post_json<T: serde::de::DeserializeOwned>(
     http: &reqwest::Client,
@@ -119,6 +117,8 @@ pub async fn post_json<T: serde::de::DeserializeOwned>(
         .unwrap()
 }
 
+/// A street-level walk through the demo city: along the x axis on the z = 0 street from
+/// x = −150 m to 150 m, eye 1.7 m up, looking roughly along the walk with a slow sway.
 pub fn street_walk(n: usize, viewport: [u32; 2]) -> Vec<Pose> {
     (0..n)
         .map(|i| {

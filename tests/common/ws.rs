@@ -15,6 +15,11 @@ pub type Ws =
     tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
 
 pub async fn connect(srv: &TestServer, query: &str) -> Ws {
+    connect_hello(srv, query).await.0
+}
+
+/// [`connect`], also returning the hello frame's JSON.
+pub async fn connect_hello(srv: &TestServer, query: &str) -> (Ws, serde_json::Value) {
     let (mut ws, _) =
         tokio_tungstenite::connect_async(srv.ws_url(&format!("/v1/scenes/demo/stream{query}")))
             .await
@@ -28,10 +33,10 @@ pub async fn connect(srv: &TestServer, query: &str) -> Ws {
                 h.object_count,
                 info["scene"]["objects"].as_u64().unwrap() as u32
             );
+            (ws, info)
         }
         f => panic!("expected hello, got {f:?}"),
     }
-    ws
 }
 
 pub async fn next_frame(ws: &mut Ws) -> Frame {

@@ -266,7 +266,7 @@ export const STREAM_OPTIONS = { refine: false };
 
 function connect(sceneId) {
   const params = { ...STREAM_OPTIONS, ...SMOOTHING };
-  for (const k of ["method", "threshold", "deb", "refine", "lookahead_ms", "hold_ms"]) if (query.has(k)) params[k] = query.get(k);
+  for (const k of ["method", "threshold", "deb", "refine", "lookahead_ms", "hold_ms", "seen_first"]) if (query.has(k)) params[k] = query.get(k);
   const client = new HomcullClient({ url: location.origin, scene: sceneId, params });
   app.client = client;
   client.addEventListener("state", (e) => {
