@@ -10,10 +10,11 @@
 //! - [`camera`]: poses, projection, frustum, box → screen rect; all conventions.
 //! - [`scene`]: glTF loading, objects, test boxes (sub-bounds), the demo city.
 //! - [`bvh`]: object BVH (obvhs) with frustum traversal.
-//! - [`occluders`]: occluder database and runtime selection.
+//! - [`occluders`]: occluder database and runtime selection (nearest first, or what a
+//!   walk saw at its previous pose first).
 //! - [`hom`]: the algorithm on the CPU (raster, pyramid, DEB, object test): the
 //!   reference for the GPU and the fallback without one.
-//! - [`gpu`]: the same passes on wgpu, batched.
+//! - [`gpu`]: the same passes on wgpu, batched; GPU time per pass from timestamps.
 //! - [`cull`]: the `Culler` trait, per-pose planning, methods frustum/hom/hzb/exact.
 //! - [`engine`]: a prepared scene with its backend (GPU, or CPU fallback).
 //! - [`eval`]: runs methods against the oracle and aggregates quality and timing.
