@@ -20,6 +20,7 @@ mod passes;
 pub mod plot;
 mod scaling;
 mod server;
+mod targets;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -104,7 +105,7 @@ impl Plan {
                 batches: vec![1, 4, 16, 64, 256, 1024],
                 city_blocks: vec![6, 19, 59, 186],
                 city_poses: 32,
-                clients: vec![1, 10, 50, 100, 250, 500],
+                clients: vec![1, 10, 32, 50, 100, 250, 500],
                 load_seconds: 4.0,
             }
         }
@@ -156,6 +157,8 @@ struct Report {
     gpu: Option<Arc<GpuContext>>,
     md: String,
     started: Instant,
+    /// The issues' targets the sections measured, for the closing table.
+    targets: Vec<targets::Target>,
 }
 
 impl Report {
@@ -234,6 +237,7 @@ pub fn main(a: ReportArgs) -> Result<()> {
         gpu,
         md: String::new(),
         started: Instant::now(),
+        targets: Vec::new(),
     };
     let mut flags = String::from(if a.quick { " --quick" } else { "" });
     if !a.sections.is_empty() {
@@ -289,6 +293,7 @@ pub fn main(a: ReportArgs) -> Result<()> {
             r.save()?;
         }
     }
+    targets::section(&mut r.md, &r.targets, &adapter);
     let secs = r.started.elapsed().as_secs_f64();
     let _ = writeln!(r.md, "\n---\nReport generated in {secs:.0} s.");
     r.save()?;
@@ -426,7 +431,59 @@ fn quality(r: &mut Report, scenes: &[Loaded]) -> Result<Vec<EvalReport>> {
     if !pvs.is_empty() {
         let _ = writeln!(r.md, "\nPVS check (OpenArena maps): {}.", pvs.join("; "));
     }
+    quality_targets(r, &evals);
     Ok(evals)
+}
+
+/// Issue 3's quality and speed targets from section 1.
+fn quality_targets(r: &mut Report, evals: &[EvalReport]) {
+    let conservative = ["hom-refine", "hom-raster", "hom-tiles", "hom-plane", "hzb"];
+    let false_culls: u64 = evals
+        .iter()
+        .flat_map(|e| conservative.iter().filter_map(|m| e.methods.get(*m)))
+        .map(|m| m.false_culls)
+        .sum();
+    let poses: u64 = evals.iter().map(|e| e.poses).sum();
+    r.targets.push(targets::Target {
+        issue: 3,
+        what: "false culls of every HOM variant and HZB at threshold 1.0 = 0".into(),
+        measured: format!("{false_culls} in {poses} poses on {} scenes", evals.len()),
+        met: false_culls == 0,
+    });
+    let shared = ["munich", "etoile", "oa_shouse", "oa_dm1"];
+    let worst = evals
+        .iter()
+        .filter(|e| shared.contains(&e.scene.as_str()))
+        .filter_map(|e| Some((e.scene.as_str(), e.methods.get("hom-refine")?.efficiency)))
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    if let Some((scene, eff)) = worst {
+        r.targets.push(targets::Target::bound(
+            3,
+            &format!("hom efficiency on the city and game-map scenes (worst: {scene})"),
+            eff,
+            0.9,
+            true,
+            "",
+        ));
+    }
+    let ratio = |e: &EvalReport| -> Option<f64> {
+        let hom = e.methods.get("hom-refine")?.ms_per_pose.p50;
+        let exact = e.methods.get("exact")?.ms_per_pose.p50;
+        (exact > 0.0).then(|| hom / exact)
+    };
+    if let Some(v) = evals.iter().find(|e| e.scene == "munich").and_then(ratio) {
+        r.targets.push(targets::Target::bound(
+            3,
+            &format!(
+                "hom ÷ exact time per pose, batch {}, munich (most objects)",
+                r.plan.batch
+            ),
+            v,
+            0.5,
+            false,
+            "×",
+        ));
+    }
 }
 
 /// Uncovered level-0 pixels a texel at level `k` may hold and still pass at `O_0 = t`:

@@ -8,6 +8,7 @@ use anyhow::Result;
 use homcull_proto::{CullOptions, Method};
 
 use super::plot::{Chart, Series, loglog_slope};
+use super::targets::Target;
 use super::{Loaded, Report, progress, spec};
 use crate::eval::{MethodSpec, evaluate};
 use crate::occluders::OccluderParams;
@@ -154,6 +155,17 @@ pub(super) fn batch(r: &mut Report) -> Result<()> {
         let ms = t.elapsed().as_secs_f64() * 1e3 / n as f64;
         let _ = writeln!(r.md, "| {b} | {n} | {ms:.2} | {:.0} |", 1e3 / ms);
         pts.push((b as f64, ms));
+    }
+    let ms_at = |b: f64| pts.iter().find(|p| p.0 == b).map(|p| p.1);
+    if let (Some(single), Some(batched)) = (ms_at(1.0), ms_at(64.0)) {
+        r.targets.push(Target::bound(
+            3,
+            "throughput of batches of 64 ÷ single poses (demo city)",
+            single / batched,
+            5.0,
+            true,
+            "×",
+        ));
     }
     let _ = writeln!(
         r.md,

@@ -7,6 +7,7 @@ use anyhow::{Context, Result, bail};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
 use super::plot::{Chart, Series};
+use super::targets::Target;
 use super::{Report, progress};
 use crate::config::{LoadgenArgs, ServeArgs};
 use crate::loadgen::LoadReport;
@@ -175,6 +176,7 @@ pub(super) fn section(r: &mut Report) -> Result<()> {
         (Some(a), Some(b)) if b > 0.0 => format!("{:.2}×", a / b),
         _ => "–".into(),
     };
+    server_targets(r, &results);
     let most = *r.plan.clients.iter().max().unwrap_or(&1);
     let _ = writeln!(
         r.md,
@@ -194,4 +196,55 @@ pub(super) fn section(r: &mut Report) -> Result<()> {
         },
         &series,
     )
+}
+
+/// Issue 4's targets from the load runs (`results`: batching on, then off).
+fn server_targets(r: &mut Report, results: &[(bool, Vec<LoadReport>)]) {
+    let ws = |on: bool, clients: usize| {
+        results
+            .iter()
+            .find(|(b, _)| *b == on)
+            .and_then(|(_, reps)| reps.iter().find(|l| l.mode == "ws" && l.clients == clients))
+    };
+    if let (Some(on), Some(off)) = (ws(true, 32), ws(false, 32))
+        && off.poses_per_s > 0.0
+    {
+        r.targets.push(Target::bound(
+            4,
+            "WebSocket poses/s under 32 clients, batching on ÷ off",
+            on.poses_per_s / off.poses_per_s,
+            5.0,
+            true,
+            "×",
+        ));
+    }
+    if let Some(p50) = ws(true, 1)
+        .and_then(|l| l.rtt_minus_server_ms)
+        .map(|p| p.p50)
+    {
+        r.targets.push(Target::bound(
+            4,
+            "WebSocket round trip − in-process cull time, p50, 1 client",
+            p50,
+            0.5,
+            false,
+            " ms",
+        ));
+    }
+    if let Some(l) = ws(true, 500) {
+        r.targets.push(Target::bound(
+            4,
+            "/healthz p99 under 500 WebSocket clients",
+            l.healthz_ms.p99,
+            50.0,
+            false,
+            " ms",
+        ));
+        r.targets.push(Target {
+            issue: 4,
+            what: "every one of 500 WebSocket clients keeps getting answers".into(),
+            measured: format!("fewest answers to one client: {}", l.min_client_poses),
+            met: l.min_client_poses > 0 && l.errors == 0,
+        });
+    }
 }
