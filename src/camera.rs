@@ -182,6 +182,20 @@ impl Camera {
         -(self.view * p.extend(1.0)).z
     }
 
+    /// The world point seen through the centre of pixel `(x, y)` at view depth `depth`
+    /// (the inverse of rasterizing a point: what an ID buffer's depth says was hit).
+    pub fn unproject_pixel(&self, x: u32, y: u32, depth: f32) -> Vec3 {
+        let ndc_x = (x as f32 + 0.5) / self.width as f32 * 2.0 - 1.0;
+        let ndc_y = 1.0 - (y as f32 + 0.5) / self.height as f32 * 2.0;
+        let view = Vec4::new(
+            ndc_x * depth / self.scale[0],
+            ndc_y * depth / self.scale[1],
+            -depth,
+            1.0,
+        );
+        (self.view.inverse() * view).truncate()
+    }
+
     /// Projects a box to its pixel rect and depth range, clipping it at the near plane
     /// (the clipped part has depth ≥ near, so its nearest depth is then `near`).
     /// `None` if no part of the box is in front of the near plane or its rect is off
@@ -369,6 +383,24 @@ mod tests {
 
     fn cam() -> Camera {
         look_at(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, 200, 100)
+    }
+
+    #[test]
+    fn unproject_pixel_inverts_projection() {
+        let cam = look_at(
+            Vec3::new(3.0, 2.0, 10.0),
+            Vec3::new(0.5, 1.0, 0.0),
+            200,
+            100,
+        );
+        for (x, y, depth) in [(0, 0, 1.0), (199, 99, 7.5), (37, 61, 30.0)] {
+            let p = cam.unproject_pixel(x, y, depth);
+            let (sx, sy, d) = project_point(&cam, p);
+            assert!((sx - (x as f32 + 0.5)).abs() < 1e-3, "{sx} vs {x}");
+            assert!((sy - (y as f32 + 0.5)).abs() < 1e-3, "{sy} vs {y}");
+            assert!((d - depth).abs() < 1e-3 * depth);
+            assert!((cam.depth_of(p) - depth).abs() < 1e-3 * depth);
+        }
     }
 
     #[test]

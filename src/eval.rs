@@ -94,8 +94,19 @@ pub struct MethodReport {
 pub struct PvsCheck {
     /// Poses whose eye lies in a non-solid cluster (the only ones checked).
     pub poses_checked: u64,
-    /// Objects the oracle saw that the PVS says cannot be seen (must be 0).
+    /// Objects the oracle saw that the PVS says cannot be seen, summed over poses.
     pub oracle_outside_pvs: u64,
+    /// Each of them: which pose, from which cluster, which object. On the shared maps
+    /// they are data artefacts, not oracle errors (`pvs::audit` explains them).
+    pub sightings: Vec<PvsSighting>,
+}
+
+/// An object the oracle saw from a cluster whose PVS row rules it out.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct PvsSighting {
+    pub pose: usize,
+    pub cluster: i32,
+    pub object: u32,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -235,22 +246,22 @@ pub fn evaluate(
         for (k, &c) in clusters.iter().enumerate() {
             if c >= 0 {
                 check.poses_checked += 1;
-                let outside: Vec<u32> = oracle[k]
-                    .iter()
-                    .copied()
-                    .filter(|&id| !p.may_see(c, id))
-                    .collect();
-                if !outside.is_empty() {
+                for &object in oracle[k].iter().filter(|&&id| !p.may_see(c, id)) {
                     tracing::debug!(
                         pose = k,
                         cluster = c,
-                        ?outside,
-                        "oracle sees objects outside the PVS"
+                        object,
+                        "oracle sees an object outside the PVS"
                     );
+                    check.sightings.push(PvsSighting {
+                        pose: k,
+                        cluster: c,
+                        object,
+                    });
                 }
-                check.oracle_outside_pvs += outside.len() as u64;
             }
         }
+        check.oracle_outside_pvs = check.sightings.len() as u64;
         check
     });
     let scene = &engine.prepared.scene;

@@ -114,17 +114,40 @@ fn check(scene: Scene) {
             "{name}: hom keeps {} objects the PVS proves hidden",
             hom.kept_pvs_hidden.unwrap_or(0)
         );
-        // Known exception (see README): on oa_dm1 the oracle sees `cluster_0` (hull/sky
-        // faces) from clusters whose PVS row lists none of its leaves; that is 20
-        // sightings in 200 poses, 1 on oa_shouse. Anything beyond 1 % is a regression.
-        let visible = report.methods["exact"].oracle_visible;
+        // Every object the GPU oracle sees outside the map's PVS must be explained: an
+        // object holding copies of brush-model faces (oa_dm1's cluster_0: the PVS data
+        // cannot cover those, see `pvs::audit`), or one the CPU twin of the oracle does
+        // not see at that pose (a crack: the GPU, which snaps vertices to a fixed-point
+        // grid, leaves a pixel between nearer triangles uncovered that exact arithmetic
+        // covers; oa_shouse pose 8 sees 10.06 m deep at one pixel where the CPU sees a
+        // wall at 7.82 m). The CPU oracle is audited pixel by pixel in `pvs_oracle.rs`.
+        let pvs = pvs.as_ref().unwrap();
+        let scene = &engine.prepared.scene;
+        let copies = homcull::pvs::brush_model_copies(scene);
+        let mut cracks = 0;
+        for s in &check.sightings {
+            if copies.contains(&s.object) {
+                continue;
+            }
+            let cpu = homcull::pvs::audit_pixels(pvs, scene, &cams[s.pose]).unwrap();
+            assert!(
+                !cpu.visible.contains(&s.object),
+                "{name}: pose {} (cluster {}) sees object {}, which the PVS rules out",
+                s.pose,
+                s.cluster,
+                s.object
+            );
+            cracks += 1;
+        }
         eprintln!(
-            "{name}: {} oracle-visible objects outside the PVS (of {visible})",
-            check.oracle_outside_pvs
+            "{name}: {} oracle sightings outside the PVS: {} of brush-model copies, {cracks} \
+             through GPU cracks",
+            check.sightings.len(),
+            check.sightings.len() - cracks
         );
         assert!(
-            check.oracle_outside_pvs * 100 <= visible,
-            "{name}: the oracle sees too many objects outside the map's PVS"
+            cracks * 100 <= POSES,
+            "{name}: {cracks} GPU-only sightings outside the PVS in {POSES} poses"
         );
     }
 }

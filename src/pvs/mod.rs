@@ -12,6 +12,10 @@
 //! Every index in the data is checked once at parse time, so the queries never panic,
 //! whatever the file held.
 
+mod audit;
+
+pub use audit::{PixelAudit, audit_pixels, brush_model_copies};
+
 use glam::Vec3;
 use serde_json::Value;
 
@@ -161,6 +165,22 @@ impl Pvs {
                 clusters.iter().any(|c| row.binary_search(c).is_ok())
             }
             Some(ObjectClusters::Unknown) | None => true,
+        }
+    }
+
+    /// Whether cluster `to` is in the PVS row of cluster `from`: false from solid, true
+    /// for a point in solid (`to` < 0: geometry surfaces sit on solid boundaries) and
+    /// whenever the data cannot rule it out (missing row, unknown cluster).
+    pub fn cluster_may_see(&self, from: i32, to: i32) -> bool {
+        let Ok(from) = usize::try_from(from) else {
+            return false;
+        };
+        let Ok(to) = u32::try_from(to) else {
+            return true;
+        };
+        match self.visible.get(from) {
+            Some(Some(row)) => row.binary_search(&to).is_ok(),
+            _ => true,
         }
     }
 
@@ -481,6 +501,10 @@ mod tests {
         // From solid nothing; unknown objects and clusters stay conservative.
         assert!(!pvs.may_see(-1, 0) && !pvs.may_see(-1, 4));
         assert!(pvs.may_see(0, 99) && pvs.may_see(7, 1));
+        // Cluster to cluster: the rows as given; a point in solid is not ruled out.
+        assert!(pvs.cluster_may_see(0, 0) && !pvs.cluster_may_see(0, 1));
+        assert!(pvs.cluster_may_see(1, 0) && pvs.cluster_may_see(1, 1));
+        assert!(!pvs.cluster_may_see(-1, 0) && pvs.cluster_may_see(0, -1));
     }
 
     #[test]
