@@ -180,6 +180,17 @@ pub struct ServeArgs {
     /// Do not build the demo city (id `demo`).
     #[arg(long, env = "HOMCULL_NO_DEMO")]
     pub no_demo: bool,
+    /// A glTF/GLB file to serve read-only, under its file name without extension as
+    /// scene id (`--scene scenes/munich.glb` serves `munich`). Repeat the flag for more;
+    /// in the variable, separate paths with commas. A missing or broken file stops the
+    /// server at start.
+    #[arg(
+        long = "scene",
+        env = "HOMCULL_SCENES",
+        value_delimiter = ',',
+        value_name = "FILE"
+    )]
+    pub scenes: Vec<std::path::PathBuf>,
 }
 
 impl Default for ServeArgs {

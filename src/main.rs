@@ -49,7 +49,7 @@ fn serve(a: ServeArgs) -> Result<()> {
         let addr = listener.local_addr()?;
         let data_dir = a.data_dir.display().to_string();
         let (state, shutdown) = homcull::server::start(a, gpu)
-            .with_context(|| format!("opening the data dir {data_dir}"))?;
+            .with_context(|| format!("starting the server (data dir {data_dir})"))?;
         eprintln!(
             "homcull listening on http://{addr}/ (viewer at /, API docs at /docs) on {}; data in {data_dir}",
             state.adapter

@@ -54,6 +54,12 @@ pub const MAX_PITCH_DEG: f32 = 10.0;
 pub const ATTEMPTS_PER_POSE: usize = 200;
 /// Vertical field of view, near plane and least far plane of sampled poses.
 pub const FOV_Y_DEG: f32 = 60.0;
+/// Eyes [`PoseSampler::walk_start`] chooses from.
+pub const START_CANDIDATES: usize = 32;
+/// Level directions it tries at each.
+pub const START_DIRECTIONS: usize = 16;
+/// Eyes this close in height to the lowest count as on the same (street) level.
+pub const SAME_STREET_M: f32 = 0.5;
 pub const NEAR: f32 = 0.1;
 pub const MIN_FAR: f32 = 100.0;
 
@@ -161,6 +167,34 @@ impl PoseSampler {
             }
         }
         result
+    }
+
+    /// Where a walker may start: among [`START_CANDIDATES`] sampled eyes (seed 1) on
+    /// the lowest floor found (a street rather than a roof), the eye and level
+    /// direction with the longest view that ends on geometry (down a street, not into
+    /// a wall a metre away, nor out of the scene into nothing), and a point 10 m along
+    /// it. `None` if the scene has no place to stand.
+    pub fn walk_start(&self, accept: &dyn Fn(Vec3) -> bool) -> Option<(Vec3, Vec3)> {
+        let poses = self.sample(START_CANDIDATES, 1, [960, 540], accept).poses;
+        let lowest = poses.iter().map(|p| p.position[1]).min_by(f32::total_cmp)?;
+        let street = poses
+            .iter()
+            .map(|p| Vec3::from(p.position))
+            .filter(|eye| eye.y <= lowest + SAME_STREET_M);
+        let mut best: Option<(f32, Vec3, Vec3)> = None;
+        for eye in street {
+            for k in 0..START_DIRECTIONS {
+                let yaw = k as f32 * std::f32::consts::TAU / START_DIRECTIONS as f32;
+                let dir = Vec3::new(yaw.sin(), 0.0, yaw.cos());
+                let Some((view, _)) = self.closest_hit(eye, dir, self.far) else {
+                    continue; // looks out of the scene
+                };
+                if best.is_none_or(|(longest, ..)| view > longest) {
+                    best = Some((view, eye, dir));
+                }
+            }
+        }
+        best.map(|(_, eye, dir)| (eye, eye + dir * 10.0))
     }
 
     /// The (x, z) rectangle to draw from, as (min, max); `None` if the scene is empty.
@@ -378,6 +412,33 @@ mod tests {
         let dir =
             Vec3::from(p.look_at.expect("sampled poses use look_at")) - Vec3::from(p.position);
         dir.normalize().y.asin().to_degrees()
+    }
+
+    #[test]
+    fn walks_start_at_street_level_looking_level() {
+        let scene = ground_and_building();
+        let sampler = PoseSampler::new(&scene);
+        let (eye, target) = sampler.walk_start(&|_| true).expect("the ground is open");
+        assert!(
+            (eye.y - EYE_HEIGHT).abs() < 1e-3,
+            "eye {eye} is not on the ground"
+        );
+        assert!(!inside_footprint(eye));
+        // The only thing a level ray can end on is the building: it looks at it.
+        let hit = sampler.closest_hit(eye, (target - eye).normalize(), 100.0);
+        assert!(
+            hit.is_some(),
+            "looks into nothing from {eye} towards {target}"
+        );
+        assert_eq!(target.y, eye.y);
+        assert!((target.distance(eye) - 10.0).abs() < 1e-3);
+        assert_eq!(
+            sampler.walk_start(&|_| true),
+            Some((eye, target)),
+            "deterministic"
+        );
+        // Nowhere acceptable to stand: no start.
+        assert_eq!(sampler.walk_start(&|_| false), None);
     }
 
     #[test]

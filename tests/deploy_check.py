@@ -81,6 +81,7 @@ CONTRACT: dict[str, tuple[str, str | None]] = {
     "HOMCULL_RESCAN_S": ("uint", "2"),
     "HOMCULL_BUDGET": ("uint", None),
     "HOMCULL_NO_DEMO": ("bool", None),
+    "HOMCULL_SCENES": ("string", None),
     "HOMCULL_HEALTHCHECK_URL": ("url", None),
 }
 

@@ -577,3 +577,65 @@ async fn a_replica_picks_up_scenes_another_wrote_and_healthcheck_answers() {
     assert!(homcull::server::healthcheck::check(&url, std::time::Duration::from_secs(2)).is_err());
     b.stop().await;
 }
+
+/// `--scene FILE` (`HOMCULL_SCENES`): served read-only under the file's name, never in
+/// the data dir; a broken file stops the server at start, naming the file.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn scene_files_given_at_start_are_served_read_only() {
+    let files = tempfile::tempdir().unwrap();
+    let path = files.path().join("small_town.glb");
+    let glb = small_glb();
+    std::fs::write(&path, &glb).unwrap();
+    let city = files.path().join("city.glb");
+    std::fs::write(&city, write_glb(&homcull::scene::demo_city_sized(2))).unwrap();
+    let srv = TestServer::start(|c| {
+        c.no_demo = true;
+        c.scenes = vec![path.clone(), city];
+        c.rescan_s = 1;
+    })
+    .await;
+    let http = reqwest::Client::new();
+    let get = |p: &str| http.get(srv.url(p)).send();
+    let list: SceneList = get("/v1/scenes").await.unwrap().json().await.unwrap();
+    let ids: Vec<&str> = list.scenes.iter().map(|s| s.id.as_str()).collect();
+    assert_eq!(ids, ["city", "small_town"]);
+    let info = &list.scenes[1];
+    assert_eq!(info.objects, 3);
+    assert_eq!(info.glb_bytes, glb.len() as u64);
+    // The city has streets: the viewer starts walking at eye height on one.
+    let start = list.scenes[0].start.expect("a street to start on");
+    assert!((start.position[1] - 1.7).abs() < 0.05, "{start:?}");
+    assert_eq!(start.position[1], start.look_at[1], "looking level");
+    let served = get("/v1/scenes/small_town/glb").await.unwrap();
+    assert_eq!(served.status(), 200);
+    assert_eq!(served.bytes().await.unwrap().as_ref(), glb.as_slice());
+    let pose =
+        json!({"pose": {"position": [0, 1, 5], "look_at": [0, 1, -20], "viewport": [320, 180]}});
+    let culled: CullResponse =
+        post_json(&http, &srv.url("/v1/scenes/small_town/cull"), &pose).await;
+    assert_eq!(culled.visible, vec![0], "the box behind the wall is culled");
+
+    let delete = http
+        .delete(srv.url("/v1/scenes/small_town"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(error_of(delete).await, (409, "read_only".into()));
+    // Rescans of the (empty) data dir leave it resident.
+    tokio::time::sleep(std::time::Duration::from_millis(2500)).await;
+    assert_eq!(get("/v1/scenes/small_town").await.unwrap().status(), 200);
+    assert!(
+        std::fs::read_dir(srv.data_dir.join("scenes")).map_or(true, |mut d| d.next().is_none()),
+        "nothing is written to the data dir"
+    );
+    srv.stop().await;
+
+    let broken = files.path().join("broken.glb");
+    std::fs::write(&broken, b"not a glb").unwrap();
+    let mut cfg = common::server::config(files.path());
+    cfg.scenes = vec![broken];
+    let err = homcull::server::start(cfg, None)
+        .err()
+        .expect("a broken file stops the start");
+    assert!(err.to_string().contains("broken.glb"), "{err}");
+}

@@ -25,6 +25,18 @@ pub struct SceneInfo {
     /// Warnings raised while loading (skipped primitives and the like).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
+    /// Where a walker may start: a street-level eye in open space, looking level
+    /// (absent when none was found, e.g. a scene without floors).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<WalkStart>,
+}
+
+/// A standing eye and a point it looks at, at the same height.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct WalkStart {
+    pub position: [f32; 3],
+    pub look_at: [f32; 3],
 }
 
 /// `GET /v1/scenes`.

@@ -17,6 +17,7 @@ pub mod healthcheck;
 pub mod metrics;
 pub mod motion;
 pub mod routes;
+pub mod scene_files;
 pub mod state;
 pub mod static_files;
 pub mod store;
@@ -74,6 +75,7 @@ use store::Store;
         homcull_proto::CullStats,
         homcull_proto::CullResponse,
         homcull_proto::SceneInfo,
+        homcull_proto::WalkStart,
         homcull_proto::SceneList,
         homcull_proto::ObjectInfo,
         homcull_proto::ObjectList,
@@ -132,14 +134,17 @@ pub fn app(state: AppState) -> Router {
         .with_state(state)
 }
 
-/// Builds the server state: opens the data dir, starts the GPU worker, and loads the
-/// demo city and stored scenes in the background (`/readyz` says when they are in).
+/// Builds the server state: opens the data dir, parses the `--scene` files (an error
+/// names the file), starts the GPU worker, and makes the demo city, the `--scene` files
+/// and the stored scenes resident in the background (`/readyz` says when they are in).
 /// `gpu` is the adapter to use (`None`: the CPU reference).
 pub fn start(
     config: ServeArgs,
     gpu: Option<Arc<GpuContext>>,
 ) -> std::io::Result<(AppState, watch::Sender<bool>)> {
+    state::tune_allocator();
     let store = Store::open(&config.data_dir)?;
+    let files = scene_files::load_all(&config.scenes).map_err(std::io::Error::other)?;
     let (shutdown_tx, shutdown) = watch::channel(false);
     let worker = worker::spawn(config.queue, config.gpu_batch, !config.no_batching);
     let adapter = gpu
@@ -163,6 +168,9 @@ pub fn start(
     tokio::task::spawn_blocking(move || {
         if !st.config.no_demo {
             st.load_demo();
+        }
+        for file in files {
+            st.load_file(file);
         }
         st.rescan();
         st.ready.store(true, Ordering::SeqCst);

@@ -196,7 +196,7 @@ pub async fn get_glb(
     Ok(([(header::CONTENT_TYPE, "model/gltf-binary")], bytes).into_response())
 }
 
-/// Deletes an uploaded scene (the demo stays).
+/// Deletes an uploaded scene (the demo and `--scene` files stay).
 #[utoipa::path(delete, path = "/v1/scenes/{id}", params(("id" = String, Path, description = "scene id")),
     responses((status = 204), (status = 401, body = homcull_proto::ErrorBody),
         (status = 404, body = homcull_proto::ErrorBody), (status = 409, body = homcull_proto::ErrorBody)))]
@@ -206,14 +206,15 @@ pub async fn delete_scene(
     Path(id): Path<String>,
 ) -> Result<StatusCode, ApiError> {
     check_token(&state, &headers)?;
-    if id == "demo" {
+    if state.scene(&id)?.read_only {
         return Err(ApiError::new(
             StatusCode::CONFLICT,
             "read_only",
-            "the demo scene is built in and cannot be deleted",
+            format!(
+                "scene `{id}` is built in or was given with --scene at start; it cannot be deleted"
+            ),
         ));
     }
-    state.scene(&id)?;
     let st = state.clone();
     tokio::task::spawn_blocking(move || {
         let _changing = st.changes.lock().unwrap_or_else(|p| p.into_inner());

@@ -5,10 +5,11 @@ use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 
-use homcull_proto::{ObjectInfo, SceneInfo};
+use homcull_proto::{ObjectInfo, SceneInfo, WalkStart};
 use tokio::sync::watch;
 
 use super::error::ApiError;
+use super::scene_files::SceneFile;
 use super::store::{OccluderCache, SceneMeta, Store};
 use super::worker::WorkerHandle;
 use crate::config::ServeArgs;
@@ -16,6 +17,8 @@ use crate::cull::PreparedScene;
 use crate::engine::Engine;
 use crate::gpu::GpuContext;
 use crate::occluders::{OccluderDb, OccluderParams};
+use crate::pvs::Pvs;
+use crate::sampler::PoseSampler;
 use crate::scene::{Scene, demo_city, load_glb_bytes, write_glb};
 
 /// Where a scene's GLB is served from.
@@ -32,6 +35,9 @@ struct Origin {
     name: String,
     glb: GlbSource,
     glb_bytes: u64,
+    /// Not from the data dir (the demo, `--scene` files): cannot be deleted, and
+    /// rescans leave it be.
+    read_only: bool,
 }
 
 /// One resident scene.
@@ -39,6 +45,8 @@ pub struct SceneEntry {
     pub info: SceneInfo,
     pub objects: Vec<ObjectInfo>,
     pub glb: GlbSource,
+    /// Built in or given at start (`Origin::read_only`).
+    pub read_only: bool,
     /// Only the GPU worker locks this, so it is never contended.
     pub engine: Mutex<Engine>,
 }
@@ -52,6 +60,7 @@ impl SceneEntry {
         cache: Option<OccluderCache>,
         gpu: Option<Arc<GpuContext>>,
     ) -> SceneEntry {
+        let pvs = crate::pvs::Pvs::from_scene(&scene).and_then(Result::ok);
         // glTF extras (e.g. the OpenArena maps' PVS) are for offline evaluation only;
         // as JSON values they can outweigh the geometry.
         scene.extras = None;
@@ -81,8 +90,9 @@ impl SceneEntry {
             name,
             glb,
             glb_bytes,
+            read_only,
         } = origin;
-        let info = SceneInfo {
+        let mut info = SceneInfo {
             id,
             name,
             objects: scene.objects.len() as u32,
@@ -91,12 +101,18 @@ impl SceneEntry {
             bounds: [scene.bounds.min.to_array(), scene.bounds.max.to_array()],
             glb_bytes,
             warnings: scene.warnings.clone(),
+            start: None,
         };
         let engine = Engine::from_prepared(PreparedScene::with_occluders(scene, occluders), gpu);
+        // Last, so that the sampler's short-lived structures sit above everything the
+        // scene keeps and go back to the OS whole (computed first, they stayed resident
+        // as fragments: munich +7 MiB).
+        info.start = walk_start(&engine.prepared.scene, pvs.as_ref());
         SceneEntry {
             info,
             objects,
             glb,
+            read_only,
             engine: Mutex::new(engine),
         }
     }
@@ -112,6 +128,24 @@ impl SceneEntry {
             ids: db.ids.clone(),
         }
     }
+}
+
+/// Scenes above this many triangles get no walk start: the sampler's triangle BVH
+/// would cost more memory and time at load than the hint is worth.
+const MAX_WALK_START_TRIANGLES: u64 = 4_000_000;
+
+/// A street-level place for the viewer to start walking (`SceneInfo::start`). Inside a
+/// map that carries a PVS, only eyes in a vis-cluster count (not on the sealed hull).
+fn walk_start(scene: &Scene, pvs: Option<&Pvs>) -> Option<WalkStart> {
+    if scene.triangle_count() > MAX_WALK_START_TRIANGLES {
+        return None;
+    }
+    let accept = |p: glam::Vec3| pvs.is_none_or(|v| v.cluster_at(p) >= 0);
+    let (eye, target) = PoseSampler::new(scene).walk_start(&accept)?;
+    Some(WalkStart {
+        position: eye.to_array(),
+        look_at: target.to_array(),
+    })
 }
 
 pub struct Inner {
@@ -230,6 +264,7 @@ impl AppState {
             name: "demo city".into(),
             glb: GlbSource::Memory(glb),
             glb_bytes: len,
+            read_only: true,
         };
         let entry = SceneEntry::build(
             origin,
@@ -242,6 +277,31 @@ impl AppState {
             objects = entry.info.objects,
             ms = t.elapsed().as_millis() as u64,
             "demo city ready"
+        );
+        self.insert(entry);
+    }
+
+    /// Makes a `--scene` file resident (blocking): read-only, never in the data dir.
+    pub fn load_file(&self, file: SceneFile) {
+        let t = std::time::Instant::now();
+        let origin = Origin {
+            id: file.id,
+            name: file.scene.name.clone(),
+            glb: GlbSource::File(file.path),
+            glb_bytes: file.glb_bytes,
+            read_only: true,
+        };
+        let entry = SceneEntry::build(
+            origin,
+            file.scene,
+            self.occluder_params(),
+            None,
+            self.gpu.clone(),
+        );
+        release_free_heap();
+        tracing::info!(
+            id = %entry.info.id, objects = entry.info.objects,
+            ms = t.elapsed().as_millis() as u64, "scene file ready"
         );
         self.insert(entry);
     }
@@ -272,6 +332,7 @@ impl AppState {
             name: meta.name.clone(),
             glb: GlbSource::File(self.store.glb_path(&meta.id)),
             glb_bytes,
+            read_only: false,
         };
         let entry = SceneEntry::build(
             origin,
@@ -308,12 +369,12 @@ impl AppState {
                 return;
             }
         };
-        let resident: Vec<String> = self
+        let resident: Vec<(String, bool)> = self
             .scenes
             .read()
             .unwrap_or_else(|p| p.into_inner())
-            .keys()
-            .cloned()
+            .iter()
+            .map(|(id, s)| (id.clone(), s.read_only))
             .collect();
         for id in &on_disk {
             let failed = self
@@ -321,7 +382,7 @@ impl AppState {
                 .lock()
                 .unwrap_or_else(|p| p.into_inner())
                 .contains(id);
-            if !resident.contains(id) && !failed {
+            if !resident.iter().any(|(r, _)| r == id) && !failed {
                 if let Err(e) = self.load_stored(id) {
                     tracing::warn!("skipping a stored scene: {e}");
                     self.failed
@@ -331,8 +392,8 @@ impl AppState {
                 }
             }
         }
-        for id in resident {
-            if id != "demo" && !on_disk.contains(&id) {
+        for (id, read_only) in resident {
+            if !read_only && !on_disk.contains(&id) {
                 tracing::info!(%id, "scene left the data dir; unloading");
                 self.remove(&id);
             }
@@ -348,5 +409,17 @@ pub fn release_free_heap() {
     // SAFETY: malloc_trim only returns free pages of glibc's own heap to the kernel.
     unsafe {
         libc::malloc_trim(0);
+    }
+}
+
+/// Keeps large allocations (≥ 256 KiB) out of the heap: glibc otherwise raises its mmap
+/// threshold to the size of each large block freed, after which blocks of that size
+/// come from the heap, and a scene load's short-lived buffers (the GLB parse, the
+/// walk-start sampler) leave resident fragments behind (seen: +7–9 MiB per scene).
+pub fn tune_allocator() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: mallopt only changes glibc's allocation policy for later allocations.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 256 * 1024);
     }
 }

@@ -6,7 +6,7 @@ import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 
 import { HomcullClient, State } from "./client.js";
 import { LOCKSTEP_ENTER_MS, LOCKSTEP_LEAVE_MS, ViewLog, parseDisplayMode, useLockstep } from "./display.js";
-import { flatten, mapObjects } from "./scene-map.js";
+import { flatten, mapObjects, walkStart } from "./scene-map.js";
 import { fetchJson, loadGlb } from "./loading.js";
 import { debugMaterials, prepareMaterials } from "./materials.js";
 
@@ -232,6 +232,12 @@ function startPose(info) {
   if (info.id === "demo") {
     // The demo city's origin is on an open street crossing; look east along the street.
     setWalkPose([0, EYE_HEIGHT, 0], -90, 0);
+    return;
+  }
+  // Other scenes: at street level where the server found open ground, else from above.
+  const start = walkStart(info);
+  if (start) {
+    setWalkPose(start.position, start.yawDeg, 0);
     return;
   }
   const [lo, hi] = info.bounds;

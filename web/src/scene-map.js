@@ -94,3 +94,19 @@ export function flatten(gltfScene, meshesById, root) {
   root.updateMatrixWorld(true);
   return root;
 }
+
+/**
+ * Where to start walking in a scene: the server's `start` hint (a street-level eye and a
+ * point it looks at) as a position and a yaw in degrees about +Y from −Z (−90 looks
+ * along +X), or null when the scene has none or it is malformed.
+ */
+export function walkStart(info) {
+  const start = info?.start;
+  const ok = (v) => Array.isArray(v) && v.length === 3 && v.every(Number.isFinite);
+  if (!start || !ok(start.position) || !ok(start.look_at)) return null;
+  const dx = start.look_at[0] - start.position[0];
+  const dz = start.look_at[2] - start.position[2];
+  if (dx === 0 && dz === 0) return null;
+  const yawDeg = (Math.atan2(-dx, -dz) * 180) / Math.PI;
+  return { position: start.position.slice(), yawDeg };
+}

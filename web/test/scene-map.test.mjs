@@ -8,7 +8,7 @@ import assert from "node:assert/strict";
 import * as THREE from "three";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
 
-import { flatten, mapObjects, meshNodeOrder } from "../src/scene-map.js";
+import { flatten, mapObjects, meshNodeOrder, walkStart } from "../src/scene-map.js";
 
 function glb(json, bin) {
   const enc = new TextEncoder();
@@ -114,4 +114,18 @@ test("flatten keeps world transforms and makes hiding one ID independent of the 
   const drawn = [];
   root.traverseVisible((o) => o.userData.homcullId !== undefined && drawn.push(o.userData.homcullId));
   assert.deepEqual([...new Set(drawn)].sort(), [1, 2, 3, 4]);
+});
+
+test("walkStart turns the server's start hint into a position and a yaw", () => {
+  const at = (look_at) => walkStart({ start: { position: [1, 1.7, 2], look_at } });
+  const near = (a, b) => Math.abs(a - b) < 1e-9;
+  assert.deepEqual(at([11, 1.7, 2]).position, [1, 1.7, 2]);
+  assert.ok(near(at([11, 1.7, 2]).yawDeg, -90), "+X is yaw -90");
+  assert.ok(near(at([1, 1.7, -8]).yawDeg, 0), "-Z is yaw 0");
+  assert.ok(near(at([-9, 1.7, 2]).yawDeg, 90), "-X is yaw 90");
+  assert.ok(near(Math.abs(at([1, 1.7, 12]).yawDeg), 180), "+Z is yaw ±180");
+  assert.equal(walkStart({ id: "x" }), null, "no hint");
+  assert.equal(at([1, 5, 2]), null, "straight up gives no direction");
+  assert.equal(walkStart({ start: { position: [1, 2], look_at: [0, 0, 0] } }), null, "malformed");
+  assert.equal(walkStart({ start: { position: [NaN, 0, 0], look_at: [0, 0, 0] } }), null, "not finite");
 });
