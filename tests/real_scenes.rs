@@ -121,33 +121,20 @@ fn check(scene: Scene) {
         // grid, leaves a pixel between nearer triangles uncovered that exact arithmetic
         // covers; oa_shouse pose 8 sees 10.06 m deep at one pixel where the CPU sees a
         // wall at 7.82 m). The CPU oracle is audited pixel by pixel in `pvs_oracle.rs`.
-        let pvs = pvs.as_ref().unwrap();
-        let scene = &engine.prepared.scene;
-        let copies = homcull::pvs::brush_model_copies(scene);
-        let mut cracks = 0;
-        for s in &check.sightings {
-            if copies.contains(&s.object) {
-                continue;
-            }
-            let cpu = homcull::pvs::audit_pixels(pvs, scene, &cams[s.pose]).unwrap();
-            assert!(
-                !cpu.visible.contains(&s.object),
-                "{name}: pose {} (cluster {}) sees object {}, which the PVS rules out",
-                s.pose,
-                s.cluster,
-                s.object
-            );
-            cracks += 1;
-        }
-        eprintln!(
-            "{name}: {} oracle sightings outside the PVS: {} of brush-model copies, {cracks} \
-             through GPU cracks",
-            check.sightings.len(),
-            check.sightings.len() - cracks
+        eprintln!("{name}: {}", check.summary());
+        assert_eq!(
+            check.unexplained, 0,
+            "{name}: the oracle sees objects the PVS rules out: {:?}",
+            check.sightings
+        );
+        assert_eq!(
+            check.brush_model_copies + check.cracks,
+            check.oracle_outside_pvs
         );
         assert!(
-            cracks * 100 <= POSES,
-            "{name}: {cracks} GPU-only sightings outside the PVS in {POSES} poses"
+            check.cracks as usize * 100 <= POSES,
+            "{name}: {} GPU-only sightings outside the PVS in {POSES} poses",
+            check.cracks
         );
     }
 }
