@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 
 use super::store::valid_id;
-use crate::scene::{Scene, load_path};
+use crate::scene::{Scene, load_path, write_glb};
 
 /// Longest id derived from a file name.
 const MAX_ID_LEN: usize = 64;
@@ -20,7 +20,16 @@ pub struct SceneFile {
     pub id: String,
     pub path: PathBuf,
     pub scene: Scene,
-    pub glb_bytes: u64,
+    /// What clients download (`GET /v1/scenes/{id}/glb`).
+    pub glb: Glb,
+}
+
+/// A binary glTF is served from its file; a JSON glTF (whose buffers may be other
+/// files) is served as a GLB written from the parsed scene, held in memory: one node
+/// per object in ID order, so object IDs still name the same meshes.
+pub enum Glb {
+    File { bytes: u64 },
+    Written(Vec<u8>),
 }
 
 /// Parses every file, or says which one cannot be served and why.
@@ -35,18 +44,31 @@ pub fn load_all(paths: &[PathBuf]) -> Result<Vec<SceneFile>, String> {
                 path.display()
             ));
         }
-        let glb_bytes = std::fs::metadata(path)
+        let bytes = std::fs::metadata(path)
             .map_err(|e| format!("--scene {}: {e}", path.display()))?
             .len();
         let scene = load_path(path).map_err(|e| format!("--scene {}: {e}", path.display()))?;
+        let glb = if is_glb(path) {
+            Glb::File { bytes }
+        } else {
+            Glb::Written(write_glb(&scene))
+        };
         files.push(SceneFile {
             id,
             path: path.clone(),
             scene,
-            glb_bytes,
+            glb,
         });
     }
     Ok(files)
+}
+
+/// Whether the file starts with the binary glTF magic.
+fn is_glb(path: &Path) -> bool {
+    let mut magic = [0u8; 4];
+    std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic))
+        .is_ok_and(|()| &magic == b"glTF")
 }
 
 /// The scene id a file is served under: its name without the extension, which must be
@@ -114,8 +136,40 @@ mod tests {
         }
         let one = load_all(std::slice::from_ref(&a)).unwrap();
         assert_eq!(one[0].id, "city");
-        assert_eq!(one[0].glb_bytes, glb.len() as u64);
+        assert!(matches!(one[0].glb, Glb::File { bytes } if bytes == glb.len() as u64));
         let err = load_all(&[a, b]).err().unwrap();
         assert!(err.contains("both be served as `city`"), "{err}");
+    }
+
+    /// A JSON glTF with its buffer inline: one triangle, one mesh node.
+    const TRIANGLE_GLTF: &str = r#"{
+        "asset": {"version": "2.0"},
+        "scene": 0, "scenes": [{"nodes": [0]}],
+        "nodes": [{"name": "tri", "mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 1, 0]}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "buffers": [{"byteLength": 36,
+            "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]
+    }"#;
+
+    #[test]
+    fn json_gltf_is_served_as_a_written_glb() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("tri.gltf");
+        std::fs::write(&path, TRIANGLE_GLTF).unwrap();
+        let files = load_all(&[path]).unwrap();
+        assert_eq!(
+            (files[0].id.as_str(), files[0].scene.objects.len()),
+            ("tri", 1)
+        );
+        let Glb::Written(bytes) = &files[0].glb else {
+            panic!("a JSON glTF must be re-encoded");
+        };
+        assert_eq!(&bytes[..4], b"glTF");
+        let again = crate::scene::load_glb_bytes(bytes, "tri").unwrap();
+        assert_eq!(again.objects.len(), 1);
+        assert_eq!(again.triangle_count(), 1);
     }
 }

@@ -9,7 +9,7 @@ use homcull_proto::{ObjectInfo, SceneInfo, WalkStart};
 use tokio::sync::watch;
 
 use super::error::ApiError;
-use super::scene_files::SceneFile;
+use super::scene_files::{Glb, SceneFile};
 use super::store::{OccluderCache, SceneMeta, Store};
 use super::worker::WorkerHandle;
 use crate::config::ServeArgs;
@@ -284,11 +284,18 @@ impl AppState {
     /// Makes a `--scene` file resident (blocking): read-only, never in the data dir.
     pub fn load_file(&self, file: SceneFile) {
         let t = std::time::Instant::now();
+        let (glb, glb_bytes) = match file.glb {
+            Glb::File { bytes } => (GlbSource::File(file.path), bytes),
+            Glb::Written(b) => {
+                let len = b.len() as u64;
+                (GlbSource::Memory(Arc::new(b)), len)
+            }
+        };
         let origin = Origin {
             id: file.id,
             name: file.scene.name.clone(),
-            glb: GlbSource::File(file.path),
-            glb_bytes: file.glb_bytes,
+            glb,
+            glb_bytes,
             read_only: true,
         };
         let entry = SceneEntry::build(
