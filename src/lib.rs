@@ -19,8 +19,9 @@
 //! - [`engine`]: a prepared scene with its backend (GPU, or CPU fallback).
 //! - [`eval`]: runs methods against the oracle and aggregates quality and timing.
 //! - [`loss`]: which hidden objects HOM keeps, and why (boxes or occluders).
-//! - [`sampler`]: random poses where a person would stand.
-//! - [`pvs`]: the OpenArena maps' own potentially-visible sets, an independent check.
+//! - [`sampler`]: random poses where a person would stand, and a walk's start.
+//! - [`pvs`]: the OpenArena maps' own potentially-visible sets, an independent check
+//!   of the exact oracle, object by object and pixel by pixel.
 //! - [`server`]: the HTTP/WebSocket server (axum), its GPU worker and data dir.
 //! - [`loadgen`]: a bounded loopback load generator for the server.
 //! - [`report`]: `homcull report`, every evaluation side by side as markdown + PNG plots.

@@ -3,7 +3,8 @@
 //! - [`routes`]: REST (`/healthz`, `/readyz`, `/metrics`, `/v1/scenes/...`).
 //! - [`ws`]: WebSocket streaming with binary frames, deltas and latest-pose-wins.
 //! - [`worker`]: the one GPU worker that batches every waiting pose into one submission.
-//! - [`state`]: resident scenes and shared state; [`store`]: the data directory.
+//! - [`state`]: resident scenes and shared state; [`store`]: the data directory;
+//!   [`scene_files`]: scenes named at start (`--scene`), served read-only.
 //! - [`error`]: the one JSON error shape; [`metrics`]: Prometheus.
 //! - [`static_files`]: the embedded browser viewer (`web/dist`) at `/`.
 //! - [`healthcheck`]: the `homcull healthcheck` client for container probes.
