@@ -185,15 +185,23 @@ impl Camera {
     /// The world point seen through the centre of pixel `(x, y)` at view depth `depth`
     /// (the inverse of rasterizing a point: what an ID buffer's depth says was hit).
     pub fn unproject_pixel(&self, x: u32, y: u32, depth: f32) -> Vec3 {
-        let ndc_x = (x as f32 + 0.5) / self.width as f32 * 2.0 - 1.0;
-        let ndc_y = 1.0 - (y as f32 + 0.5) / self.height as f32 * 2.0;
-        let view = Vec4::new(
-            ndc_x * depth / self.scale[0],
-            ndc_y * depth / self.scale[1],
-            -depth,
-            1.0,
-        );
-        (self.view.inverse() * view).truncate()
+        self.unprojector()(x, y, depth)
+    }
+
+    /// [`Camera::unproject_pixel`] for many pixels: the view matrix is inverted once.
+    pub fn unprojector(&self) -> impl Fn(u32, u32, f32) -> Vec3 + '_ {
+        let to_world = self.view.inverse();
+        move |x, y, depth| {
+            let ndc_x = (x as f32 + 0.5) / self.width as f32 * 2.0 - 1.0;
+            let ndc_y = 1.0 - (y as f32 + 0.5) / self.height as f32 * 2.0;
+            let view = Vec4::new(
+                ndc_x * depth / self.scale[0],
+                ndc_y * depth / self.scale[1],
+                -depth,
+                1.0,
+            );
+            (to_world * view).truncate()
+        }
     }
 
     /// Projects a box to its pixel rect and depth range, clipping it at the near plane

@@ -64,6 +64,7 @@ pub fn audit_pixels(pvs: &Pvs, scene: &Scene, cam: &Camera) -> Option<PixelAudit
         ..Default::default()
     };
     let mut visible = vec![false; scene.objects.len()];
+    let unproject = cam.unprojector();
     for (i, (&object, &d)) in ids.iter().zip(&depth).enumerate() {
         let Some(seen) = visible.get_mut(object as usize) else {
             continue; // uncovered
@@ -71,7 +72,7 @@ pub fn audit_pixels(pvs: &Pvs, scene: &Scene, cam: &Camera) -> Option<PixelAudit
         *seen = true;
         audit.pixels += 1;
         let (x, y) = ((i % w) as u32, (i / w) as u32);
-        let hit = cam.unproject_pixel(x, y, d);
+        let hit = unproject(x, y, d);
         let back = (cam.position - hit).normalize_or_zero() * STEP_BACK_M.min(d * 0.5);
         let seen_from = pvs.cluster_at(hit + back);
         if seen_from < 0 {
