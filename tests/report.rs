@@ -141,6 +141,20 @@ fn quick_report_writes_markdown_and_plots() {
     for what in measured {
         assert!(targets.contains(what), "targets lack `{what}`: {targets}");
     }
+    if scenes.is_some() {
+        // The game maps' PVS: no pixel the oracle shows lies where it says nothing can
+        // be seen, and every object-level sighting is explained.
+        for what in [
+            "pixels the oracle shows where the map's PVS says nothing can be seen = 0",
+            "objects the oracle sees that the map's PVS rules out, unexplained = 0",
+        ] {
+            let row = targets
+                .lines()
+                .find(|l| l.contains(what))
+                .unwrap_or_else(|| panic!("targets lack `{what}`: {targets}"));
+            assert!(row.ends_with("| yes |"), "{row}");
+        }
+    }
 
     // Every plot the report links exists and is a PNG.
     let pngs: Vec<&str> = md

@@ -36,7 +36,7 @@ use crate::engine::Engine;
 use crate::eval::{EvalReport, MethodReport, MethodSpec, evaluate};
 use crate::gpu::GpuContext;
 use crate::occluders::OccluderParams;
-use crate::pvs::Pvs;
+use crate::pvs::{Pvs, audit_pixels};
 use crate::sampler::PoseSampler;
 use crate::scene::{Scene, demo_city, load_path};
 use plot::{Chart, Series, line_chart};
@@ -370,9 +370,13 @@ fn quality(r: &mut Report, scenes: &[Loaded]) -> Result<Vec<EvalReport>> {
         .collect::<Result<Vec<_>>>()?;
     methods.extend(THRESHOLDS[1..].iter().map(|&t| spec(&threshold_name(t), t)));
     let mut evals = Vec::new();
+    let mut audits = Vec::new();
     for (i, l) in scenes.iter().enumerate() {
         progress("quality", i, scenes.len(), &l.scene.name);
         let cams = l.cams(p.poses, p.viewport)?;
+        if let Some(pvs) = &l.pvs {
+            audits.push((l.scene.name.clone(), audit_poses(pvs, &l.scene, &cams)));
+        }
         let mut engine = r.engine(l.scene.clone(), OccluderParams::default().budget_triangles);
         evals.push(evaluate(
             &mut engine,
@@ -434,8 +438,60 @@ fn quality(r: &mut Report, scenes: &[Loaded]) -> Result<Vec<EvalReport>> {
     if !pvs.is_empty() {
         let _ = writeln!(r.md, "\nPVS check (OpenArena maps): {}.", pvs.join("; "));
     }
+    if !audits.is_empty() {
+        let lines: Vec<String> = audits
+            .iter()
+            .map(|(scene, a)| {
+                format!(
+                    "{scene}: {} of {} pixels outside ({} unresolved, in solid)",
+                    a.outside, a.pixels, a.solid
+                )
+            })
+            .collect();
+        let _ = writeln!(
+            r.md,
+            "\nPixel audit of the oracle's CPU twin against the PVS (`pvs::audit`: the point \
+             each pixel shows, stepped 5 cm towards the eye, must lie in a cluster the \
+             camera's PVS row lists): {}.",
+            lines.join("; ")
+        );
+        let (outside, pixels) = audits
+            .iter()
+            .fold((0, 0), |(o, p), (_, a)| (o + a.outside, p + a.pixels));
+        r.targets.push(targets::Target {
+            issue: 3,
+            what: "pixels the oracle shows where the map's PVS says nothing can be seen = 0".into(),
+            measured: format!("{outside} of {pixels} on {} PVS maps", audits.len()),
+            met: outside == 0,
+        });
+    }
     quality_targets(r, &evals);
     Ok(evals)
+}
+
+/// Pixel counts of `pvs::audit_pixels` over many poses.
+#[derive(Debug, Clone, Copy, Default)]
+struct AuditSum {
+    pixels: u64,
+    outside: u64,
+    solid: u64,
+}
+
+/// The pixel audit of every pose whose eye is in a cluster, summed.
+fn audit_poses(pvs: &Pvs, scene: &Scene, cams: &[Camera]) -> AuditSum {
+    use rayon::prelude::*;
+    cams.par_iter()
+        .filter_map(|c| audit_pixels(pvs, scene, c))
+        .map(|a| AuditSum {
+            pixels: a.pixels,
+            outside: a.outside,
+            solid: a.solid,
+        })
+        .reduce(AuditSum::default, |a, b| AuditSum {
+            pixels: a.pixels + b.pixels,
+            outside: a.outside + b.outside,
+            solid: a.solid + b.solid,
+        })
 }
 
 /// Issue 3's quality and speed targets from section 1.
