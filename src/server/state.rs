@@ -60,7 +60,7 @@ impl SceneEntry {
         cache: Option<OccluderCache>,
         gpu: Option<Arc<GpuContext>>,
     ) -> SceneEntry {
-        let pvs = crate::pvs::Pvs::from_scene(&scene).and_then(Result::ok);
+        let pvs = Pvs::from_scene(&scene).and_then(Result::ok);
         // glTF extras (e.g. the OpenArena maps' PVS) are for offline evaluation only;
         // as JSON values they can outweigh the geometry.
         scene.extras = None;
@@ -104,9 +104,9 @@ impl SceneEntry {
             start: None,
         };
         let engine = Engine::from_prepared(PreparedScene::with_occluders(scene, occluders), gpu);
-        // Last, so that the sampler's short-lived structures sit above everything the
-        // scene keeps and go back to the OS whole (computed first, they stayed resident
-        // as fragments: munich +7 MiB).
+        // Last, after everything the scene keeps is allocated: the sampler's short-lived
+        // structures then sit on top and, with the fixed mmap threshold
+        // (`tune_allocator`), go back to the OS whole instead of staying as fragments.
         info.start = walk_start(&engine.prepared.scene, pvs.as_ref());
         SceneEntry {
             info,
