@@ -301,9 +301,8 @@ impl CpuBackend {
     ) -> impl Iterator<Item = (u32, [glam::Vec3; 3])> + 'a {
         ids.iter().flat_map(move |&id| {
             scene
-                .triangles_of(&scene.objects[id as usize])
-                .chunks_exact(3)
-                .map(move |t| (id, [0, 1, 2].map(|k| scene.positions[t[k] as usize])))
+                .corners_of(&scene.objects[id as usize])
+                .map(move |t| (id, t))
         })
     }
 
@@ -360,8 +359,7 @@ impl CpuBackend {
     /// early depth test makes the same comparison on its own depths).
     pub fn hidden_per_pixel(scene: &Scene, cam: &Camera, occluders: &[f32], id: u32) -> bool {
         let o = &scene.objects[id as usize];
-        scene.triangles_of(o).chunks_exact(3).all(|t| {
-            let tri = [0, 1, 2].map(|k| scene.positions[t[k] as usize]);
+        scene.corners_of(o).all(|tri| {
             let mut hidden = true;
             raster_triangle(cam, tri, |x, y, d| {
                 let occ = occluders[(y * cam.width + x) as usize];

@@ -56,7 +56,7 @@ pub fn audit_pixels(pvs: &Pvs, scene: &Scene, cam: &Camera) -> Option<PixelAudit
     let triangles = scene
         .objects
         .iter()
-        .flat_map(|o| triangles_of(scene, o).map(move |t| (o.id, t)));
+        .flat_map(|o| scene.corners_of(o).map(move |t| (o.id, t)));
     raster_ids(cam, triangles, &mut ids, &mut depth);
 
     let mut audit = PixelAudit {
@@ -87,14 +87,6 @@ pub fn audit_pixels(pvs: &Pvs, scene: &Scene, cam: &Camera) -> Option<PixelAudit
     Some(audit)
 }
 
-/// One object's triangles as vertex triples.
-fn triangles_of<'a>(scene: &'a Scene, o: &Object) -> impl Iterator<Item = [Vec3; 3]> + 'a {
-    scene
-        .triangles_of(o)
-        .chunks_exact(3)
-        .map(|t| [0, 1, 2].map(|k| scene.positions[t[k] as usize]))
-}
-
 /// Objects that are not brush models (node extras without `"model"`) but hold a
 /// triangle identical to one of a brush model's, ascending: their PVS clusters cannot
 /// cover those copies (module docs).
@@ -110,7 +102,7 @@ pub fn brush_model_copies(scene: &Scene) -> Vec<u32> {
         .objects
         .iter()
         .filter(|o| is_model(o))
-        .flat_map(|o| triangles_of(scene, o).map(key))
+        .flat_map(|o| scene.corners_of(o).map(key))
         .collect();
     if model_triangles.is_empty() {
         return Vec::new();
@@ -119,7 +111,10 @@ pub fn brush_model_copies(scene: &Scene) -> Vec<u32> {
         .objects
         .iter()
         .filter(|o| {
-            !is_model(o) && triangles_of(scene, o).any(|t| model_triangles.contains(&key(t)))
+            !is_model(o)
+                && scene
+                    .corners_of(o)
+                    .any(|t| model_triangles.contains(&key(t)))
         })
         .map(|o| o.id)
         .collect()

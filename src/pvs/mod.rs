@@ -600,8 +600,7 @@ mod tests {
             .iter()
             .filter(|o| o.name.starts_with("cluster_"))
         {
-            for tri in scene.triangles_of(o).chunks_exact(3) {
-                let [a, b, c] = [0, 1, 2].map(|k| scene.positions[tri[k] as usize]);
+            for [a, b, c] in scene.corners_of(o) {
                 let normal = (b - a).cross(c - a).normalize_or_zero();
                 if normal == Vec3::ZERO {
                     continue;

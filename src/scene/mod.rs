@@ -110,6 +110,13 @@ impl Scene {
         &self.indices[o.first_index as usize..(o.first_index + o.index_count) as usize]
     }
 
+    /// The corners of each of one object's triangles.
+    pub fn corners_of<'a>(&'a self, o: &Object) -> impl Iterator<Item = [Vec3; 3]> + 'a {
+        self.triangles_of(o)
+            .chunks_exact(3)
+            .map(|t| [0, 1, 2].map(|k| self.positions[t[k] as usize]))
+    }
+
     pub fn triangle_count(&self) -> u64 {
         self.indices.len() as u64 / 3
     }
