@@ -9,12 +9,13 @@
 use std::sync::{Arc, OnceLock};
 
 use divan::Bencher;
-use homcull::camera::{Camera, look_at};
-use homcull::cull::{CpuBackend, CullSettings, Culler, PosePlan, PreparedScene, plan};
-use homcull::gpu::{GpuBackend, GpuContext};
-use homcull::hom::pyramid::{self, LevelLayout};
-use homcull::occluders::OccluderParams;
-use homcull::scene::demo_city;
+use homcull::core::camera::{Camera, look_at};
+use homcull::core::cull::{CullSettings, Culler, PosePlan, PreparedScene, plan};
+use homcull::core::gpu::{GpuBackend, GpuContext};
+use homcull::core::hom::ReferenceBackend;
+use homcull::core::hom::pyramid::{self, LevelLayout};
+use homcull::core::occluders::OccluderParams;
+use homcull::core::scene::demo_city;
 use homcull_proto::{CullOptions, DebVariant, Method};
 
 fn main() {
@@ -80,7 +81,7 @@ fn street_pyramid() -> &'static (PosePlan, LevelLayout, Vec<f32>, Vec<f32>) {
         let p = prepared();
         let pl = plan(p, &cams(1)[0], &settings(Method::Hom));
         let layout = LevelLayout::new(960, 540);
-        let (o, d) = pyramid::build(&layout, &CpuBackend::occluder_depth(&p.scene, &pl));
+        let (o, d) = pyramid::build(&layout, &ReferenceBackend::occluder_depth(&p.scene, &pl));
         (pl, layout, o, d)
     })
 }
@@ -93,7 +94,7 @@ fn cpu_object_test_per_box(b: Bencher) {
     let s = settings(Method::Hom);
     let (pl, layout, o, d) = street_pyramid();
     b.counter(divan::counter::ItemsCount::new(pl.test_boxes.len()))
-        .bench(|| CpuBackend::test_boxes(&p.scene, pl, &s, layout, o, d));
+        .bench(|| ReferenceBackend::test_boxes(&p.scene, pl, &s, layout, o, d));
 }
 
 /// The same test counted per candidate object (what MOC's ~100 ns per test is quoted
@@ -104,7 +105,7 @@ fn cpu_object_test_per_object(b: Bencher) {
     let s = settings(Method::Hom);
     let (pl, layout, o, d) = street_pyramid();
     b.counter(divan::counter::ItemsCount::new(pl.candidates.len()))
-        .bench(|| CpuBackend::test_boxes(&p.scene, pl, &s, layout, o, d));
+        .bench(|| ReferenceBackend::test_boxes(&p.scene, pl, &s, layout, o, d));
 }
 
 /// Frustum query, test-box selection, occluder selection and the box DEB of one pose.
@@ -130,7 +131,7 @@ fn cpu_occluder_raster(b: Bencher) {
     let p = prepared();
     let (pl, _, _, _) = street_pyramid();
     b.counter(divan::counter::ItemsCount::new(pl.occluders.ids.len()))
-        .bench(|| CpuBackend::occluder_depth(&p.scene, pl));
+        .bench(|| ReferenceBackend::occluder_depth(&p.scene, pl));
 }
 
 #[divan::bench]

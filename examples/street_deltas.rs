@@ -10,10 +10,10 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use homcull::camera::Camera;
-use homcull::engine::Engine;
-use homcull::loadgen::street_pose;
-use homcull::occluders::OccluderParams;
+use homcull::core::camera::Camera;
+use homcull::core::engine::Engine;
+use homcull::core::occluders::OccluderParams;
+use homcull::eval::loadgen::street_pose;
 use homcull::server::motion::{HeldSet, union};
 use homcull_proto::CullOptions;
 use homcull_proto::frame::{Frame, VisibleDelta, VisibleFull, diff};
@@ -33,8 +33,12 @@ fn main() -> anyhow::Result<()> {
         }
         None => [480, 270],
     };
-    let gpu = homcull::gpu::open_gpu()?.map(Arc::new);
-    let mut engine = Engine::new(homcull::scene::demo_city(), OccluderParams::default(), gpu);
+    let gpu = homcull::core::gpu::open_gpu()?.map(Arc::new);
+    let mut engine = Engine::new(
+        homcull::core::scene::demo_city(),
+        OccluderParams::default(),
+        gpu,
+    );
     eprintln!("adapter: {}", engine.adapter());
     // What a stream culls by default: HOM's box test without the per-pixel refinement.
     let settings = engine.settings(CullOptions {

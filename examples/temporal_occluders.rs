@@ -12,11 +12,11 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use glam::{Quat, Vec3};
-use homcull::camera::Camera;
-use homcull::engine::Engine;
-use homcull::occluders::OccluderParams;
-use homcull::sampler::PoseSampler;
-use homcull::scene::Scene;
+use homcull::core::camera::Camera;
+use homcull::core::engine::Engine;
+use homcull::core::occluders::OccluderParams;
+use homcull::core::sampler::PoseSampler;
+use homcull::core::scene::Scene;
 use homcull_proto::{CullOptions, Method, Pose};
 
 const WALKS: usize = 32;
@@ -31,15 +31,15 @@ fn main() -> anyhow::Result<()> {
             .nth(1)
             .unwrap_or_else(|| "../shared/scenes".into()),
     );
-    let gpu = homcull::gpu::open_gpu()?.map(Arc::new);
-    let mut scenes = vec![homcull::scene::demo_city()];
+    let gpu = homcull::core::gpu::open_gpu()?.map(Arc::new);
+    let mut scenes = vec![homcull::core::scene::demo_city()];
     let mut paths: Vec<_> = std::fs::read_dir(&dir)
         .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
         .unwrap_or_default();
     paths.retain(|p| p.extension().is_some_and(|x| x == "glb"));
     paths.sort();
     for p in paths {
-        scenes.push(homcull::scene::load_path(&p)?);
+        scenes.push(homcull::core::scene::load_path(&p)?);
     }
     println!(
         "| scene | budget | efficiency nearest first | efficiency previous-visible first | occluder triangles per pose (nearest / previous) | false culls |"

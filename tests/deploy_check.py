@@ -59,7 +59,7 @@ LIVENESS_PATH = "/healthz"
 READINESS_PATH = "/readyz"
 HEALTHCHECK_CLIENT_TIMEOUT_S = 2.0  # `homcull healthcheck` gives /healthz 2 s
 
-# The server's configuration contract (src/config.rs): env name -> (type, default).
+# The server's configuration contract (src/server/config.rs, flags in src/cli/args.rs): env name -> (type, default).
 # Used to type-check values even when the binary is not available; when it is,
 # its --help is the authority for which names exist.
 CONTRACT: dict[str, tuple[str, str | None]] = {

@@ -6,12 +6,12 @@ mod common;
 use std::time::Instant;
 
 use glam::Vec3;
-use homcull::camera::look_at;
-use homcull::cull::{CullSettings, Culler, PreparedScene};
-use homcull::gpu::GpuBackend;
-use homcull::gpu::profile::{Pass, PassTimes};
-use homcull::occluders::OccluderParams;
-use homcull::scene::demo_city;
+use homcull::core::camera::look_at;
+use homcull::core::cull::{CullSettings, Culler, PreparedScene};
+use homcull::core::cull::{Pass, PassTimes};
+use homcull::core::gpu::GpuBackend;
+use homcull::core::occluders::OccluderParams;
+use homcull::core::scene::demo_city;
 use homcull_proto::{CullOptions, DebVariant, Method};
 
 #[test]

@@ -4,12 +4,13 @@
 mod common;
 
 use glam::Vec3;
-use homcull::camera::{Camera, look_at};
-use homcull::cull::{CpuBackend, CullSettings, Culler, PreparedScene, plan};
-use homcull::gpu::GpuBackend;
-use homcull::hom::pyramid::{self, LevelLayout};
-use homcull::occluders::OccluderParams;
-use homcull::scene::{Scene, SceneBuilder, demo_city};
+use homcull::core::camera::{Camera, look_at};
+use homcull::core::cull::{CullSettings, Culler, PreparedScene, plan};
+use homcull::core::gpu::GpuBackend;
+use homcull::core::hom::ReferenceBackend;
+use homcull::core::hom::pyramid::{self, LevelLayout};
+use homcull::core::occluders::OccluderParams;
+use homcull::core::scene::{Scene, SceneBuilder, demo_city};
 use homcull_proto::{CullOptions, DebVariant, Method};
 use proptest::prelude::*;
 
@@ -56,7 +57,7 @@ fn raster_pyramid_and_test_match_cpu() {
         let go = &g_opacity[k * stride..(k + 1) * stride];
         let gd = &g_depth[k * stride..(k + 1) * stride];
         // Raster: coverage may differ only on a thin set of edge pixels; depth agrees.
-        let cpu0 = CpuBackend::occluder_depth(&prep.scene, p);
+        let cpu0 = ReferenceBackend::occluder_depth(&prep.scene, p);
         let n0 = (w * h) as usize;
         let mismatched = (0..n0)
             .filter(|&i| (cpu0[i] > 0.0) != (go[i] > 0.0))
@@ -86,7 +87,7 @@ fn raster_pyramid_and_test_match_cpu() {
         assert_eq!(co, go, "pose {k}: opacity pyramid differs");
         assert_eq!(cd, gd, "pose {k}: depth pyramid differs");
         // Object test on the same pyramid.
-        let cpu_mask = CpuBackend::test_boxes(&prep.scene, p, &s, &layout, go, gd);
+        let cpu_mask = ReferenceBackend::test_boxes(&prep.scene, p, &s, &layout, go, gd);
         assert_eq!(cpu_mask, gpu_masks[k], "pose {k}: object test differs");
         assert!(cpu_mask.iter().any(|&w| w != 0));
         // Refinement of the same box test's survivors, each side against its own
@@ -96,7 +97,7 @@ fn raster_pyramid_and_test_match_cpu() {
         // such edge pixels may go either way; conservativeness against the oracle is the
         // property test's job.
         let mut cpu_refined = cpu_mask.clone();
-        CpuBackend::refine(&prep.scene, p, &cpu0, &mut cpu_refined);
+        ReferenceBackend::refine(&prep.scene, p, &cpu0, &mut cpu_refined);
         let g = &gpu_refined[k];
         assert!(
             g.iter().zip(&gpu_masks[k]).all(|(r, b)| r & !b == 0),
@@ -182,7 +183,7 @@ fn exact_oracle_matches_cpu() {
     let s = settings(&prep, Method::Exact, DebVariant::Raster, false);
     let cams = demo_cams(320, 180);
     let g = backend.cull(&prep, &cams, &s).unwrap();
-    let c = CpuBackend.cull(&prep, &cams, &s).unwrap();
+    let c = ReferenceBackend.cull(&prep, &cams, &s).unwrap();
     for (a, b) in g.iter().zip(&c) {
         let diff = a.visible.iter().filter(|i| !b.visible.contains(i)).count()
             + b.visible.iter().filter(|i| !a.visible.contains(i)).count();
@@ -277,9 +278,9 @@ proptest! {
             }
         }
         // The CPU reference keeps the same promise against the CPU oracle.
-        let cpu_exact = CpuBackend.cull(&prep, std::slice::from_ref(&cam), &settings(&prep, Method::Exact, DebVariant::Raster, false)).unwrap();
+        let cpu_exact = ReferenceBackend.cull(&prep, std::slice::from_ref(&cam), &settings(&prep, Method::Exact, DebVariant::Raster, false)).unwrap();
         for refine in [false, true] {
-            let cpu_hom = CpuBackend.cull(&prep, std::slice::from_ref(&cam), &settings(&prep, Method::Hom, DebVariant::Raster, refine)).unwrap();
+            let cpu_hom = ReferenceBackend.cull(&prep, std::slice::from_ref(&cam), &settings(&prep, Method::Hom, DebVariant::Raster, refine)).unwrap();
             for id in &cpu_exact[0].visible {
                 prop_assert!(cpu_hom[0].visible.contains(id), "CPU hom (refine {}) culled {}", refine, id);
             }

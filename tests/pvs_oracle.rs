@@ -10,10 +10,11 @@
 
 mod common;
 
-use homcull::camera::Camera;
-use homcull::pvs::{Pvs, audit_pixels, brush_model_copies};
-use homcull::sampler::PoseSampler;
-use homcull::scene::load_path;
+use homcull::core::camera::Camera;
+use homcull::core::pvs::Pvs;
+use homcull::core::sampler::PoseSampler;
+use homcull::core::scene::load_path;
+use homcull::eval::pvs_audit::{audit_pixels, brush_model_copies};
 use rayon::prelude::*;
 
 /// Same poses as `real_scenes.rs`: 200 street-level poses, seed 7, 960×540.

@@ -8,13 +8,13 @@
 
 mod common;
 
-use homcull::camera::Camera;
-use homcull::engine::Engine;
+use homcull::core::camera::Camera;
+use homcull::core::engine::Engine;
+use homcull::core::occluders::OccluderParams;
+use homcull::core::pvs::Pvs;
+use homcull::core::sampler::PoseSampler;
+use homcull::core::scene::{Scene, demo_city, load_path};
 use homcull::eval::{MethodSpec, evaluate};
-use homcull::occluders::OccluderParams;
-use homcull::pvs::Pvs;
-use homcull::sampler::PoseSampler;
-use homcull::scene::{Scene, demo_city, load_path};
 use homcull_proto::DebVariant;
 
 const POSES: usize = 200;

@@ -81,7 +81,7 @@ fn quick_report_writes_markdown_and_plots() {
         .split("### GPU time per pass")
         .nth(1)
         .expect("a GPU time per pass subsection");
-    if homcull::gpu::require_gpu() {
+    if homcull::core::gpu::require_gpu() {
         let rows: Vec<Vec<&str>> = passes
             .lines()
             .filter(|l| l.starts_with("| ") && !l.starts_with("| scene"))

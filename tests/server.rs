@@ -3,7 +3,8 @@
 mod common;
 
 use common::server::{TestServer, post_json, street_walk};
-use homcull::scene::{SceneBuilder, write_glb};
+use homcull::core::engine::Backend;
+use homcull::core::scene::{SceneBuilder, write_glb};
 use homcull_proto::{BatchResponse, CullResponse, ErrorBody, ObjectList, SceneInfo, SceneList};
 use serde_json::{Value, json};
 
@@ -136,7 +137,7 @@ async fn every_route_and_every_error() {
     assert_eq!(glb.headers()["content-type"], "model/gltf-binary");
     let glb = glb.bytes().await.unwrap();
     assert_eq!(glb.len() as u64, info.glb_bytes);
-    let back = homcull::scene::load_glb_bytes(&glb, "demo").unwrap();
+    let back = homcull::core::scene::load_glb_bytes(&glb, "demo").unwrap();
     assert_eq!(back.objects.len() as u32, info.objects);
 
     // Single and batch culls agree, in pose order.
@@ -189,7 +190,7 @@ async fn every_route_and_every_error() {
     let levels = pyr["levels"].as_array().expect("levels");
     assert_eq!(
         levels.len(),
-        homcull::hom::pyramid::LevelLayout::new(320, 180).levels()
+        homcull::core::hom::pyramid::LevelLayout::new(320, 180).levels()
     );
     assert_eq!(
         (levels[0]["width"].as_u64(), levels[0]["height"].as_u64()),
@@ -569,12 +570,12 @@ async fn a_replica_picks_up_scenes_another_wrote_and_healthcheck_answers() {
     }
     assert!(seen, "replica b serves the scene uploaded through a");
     assert!(
-        homcull::server::healthcheck::check(&a.url("/healthz"), std::time::Duration::from_secs(2))
+        homcull::cli::healthcheck::check(&a.url("/healthz"), std::time::Duration::from_secs(2))
             .is_ok()
     );
     let url = a.url("/healthz");
     a.stop().await;
-    assert!(homcull::server::healthcheck::check(&url, std::time::Duration::from_secs(2)).is_err());
+    assert!(homcull::cli::healthcheck::check(&url, std::time::Duration::from_secs(2)).is_err());
     b.stop().await;
 }
 
@@ -587,7 +588,7 @@ async fn scene_files_given_at_start_are_served_read_only() {
     let glb = small_glb();
     std::fs::write(&path, &glb).unwrap();
     let city = files.path().join("city.glb");
-    std::fs::write(&city, write_glb(&homcull::scene::demo_city_sized(2))).unwrap();
+    std::fs::write(&city, write_glb(&homcull::core::scene::demo_city_sized(2))).unwrap();
     let srv = TestServer::start(|c| {
         c.no_demo = true;
         c.scenes = vec![path.clone(), city];
@@ -634,8 +635,11 @@ async fn scene_files_given_at_start_are_served_read_only() {
     std::fs::write(&broken, b"not a glb").unwrap();
     let mut cfg = common::server::config(files.path());
     cfg.scenes = vec![broken];
-    let err = homcull::server::start(cfg, None)
-        .err()
-        .expect("a broken file stops the start");
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let serving = homcull::server::serve(listener, cfg, Backend::Reference, std::future::pending());
+    let err = tokio::time::timeout(std::time::Duration::from_secs(30), serving)
+        .await
+        .expect("a broken file stops the start at once")
+        .expect_err("a broken file stops the start");
     assert!(err.to_string().contains("broken.glb"), "{err}");
 }

@@ -24,7 +24,7 @@ fn walk_along_street(x0: f32, step: f32, n: usize, viewport: [u32; 2]) -> Vec<Po
     (0..n)
         .map(|i| {
             let x = x0 + step * i as f32;
-            homcull::loadgen::street_pose([x, 1.7, 0.0], x + 150.0, viewport)
+            homcull::eval::loadgen::street_pose([x, 1.7, 0.0], x + 150.0, viewport)
         })
         .collect()
 }

@@ -16,7 +16,7 @@ fn walk() -> Vec<Pose> {
     (0..60)
         .map(|i| {
             let x = -20.0 + 0.5 * i as f32;
-            homcull::loadgen::street_pose([x, 1.7, 0.0], i as f32 * 0.1, [480, 270])
+            homcull::eval::loadgen::street_pose([x, 1.7, 0.0], i as f32 * 0.1, [480, 270])
         })
         .collect()
 }

@@ -25,7 +25,7 @@ fn stretch(x0: f32, n: usize) -> Vec<Pose> {
     (0..n)
         .map(|i| {
             let x = x0 + step * i as f32;
-            homcull::loadgen::street_pose([x, 1.7, 0.0], x + 150.0, [480, 270])
+            homcull::eval::loadgen::street_pose([x, 1.7, 0.0], x + 150.0, [480, 270])
         })
         .collect()
 }

@@ -194,6 +194,36 @@ impl Default for CullOptions {
     }
 }
 
+impl CullOptions {
+    /// Checks what the types cannot: the opacity threshold lies in (0, 1]. Every entry
+    /// point (REST, stream, command line, library) calls this one check.
+    pub fn validate(&self) -> Result<(), InvalidOptions> {
+        let t = self.threshold;
+        if t > 0.0 && t <= 1.0 {
+            Ok(())
+        } else {
+            Err(InvalidOptions::Threshold(t))
+        }
+    }
+}
+
+/// Why [`CullOptions::validate`] refused options.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum InvalidOptions {
+    /// The opacity threshold is outside (0, 1] (or NaN).
+    Threshold(f32),
+}
+
+impl std::fmt::Display for InvalidOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            InvalidOptions::Threshold(t) => write!(f, "threshold must be in (0, 1], got {t}"),
+        }
+    }
+}
+
+impl std::error::Error for InvalidOptions {}
+
 /// What one cull did, for clients and dashboards.
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

@@ -67,8 +67,24 @@ impl IntoResponse for ApiError {
     }
 }
 
-impl From<crate::camera::PoseError> for ApiError {
-    fn from(e: crate::camera::PoseError) -> Self {
+impl From<crate::core::camera::PoseError> for ApiError {
+    fn from(e: crate::core::camera::PoseError) -> Self {
         Self::bad_request("invalid_pose", e.to_string())
+    }
+}
+
+impl From<homcull_proto::InvalidOptions> for ApiError {
+    fn from(e: homcull_proto::InvalidOptions) -> Self {
+        Self::bad_request("invalid_options", e.to_string())
+    }
+}
+
+impl From<crate::core::cull::CullError> for ApiError {
+    fn from(e: crate::core::cull::CullError) -> Self {
+        use crate::core::cull::CullError;
+        match e {
+            CullError::Options(o) => o.into(),
+            CullError::Backend { .. } => Self::internal(e.to_string()),
+        }
     }
 }

@@ -3,22 +3,25 @@
 //! - [`routes`]: REST (`/healthz`, `/readyz`, `/metrics`, `/v1/scenes/...`).
 //! - [`ws`]: WebSocket streaming with binary frames, deltas and latest-pose-wins.
 //! - [`worker`]: the one GPU worker that batches every waiting pose into one submission.
-//! - [`state`]: resident scenes and shared state; [`store`]: the data directory;
-//!   [`scene_files`]: scenes named at start (`--scene`), served read-only.
+//! - [`config`]: [`Config`], every limit and setting, with its defaults.
+//! - [`state`]: the registry of resident scenes and shared state; [`scenes`]: how
+//!   scenes enter and leave it; [`store`]: the data directory; [`scene_files`]: scenes
+//!   named at start (`--scene`), served read-only; [`alloc`]: allocator tuning.
 //! - [`error`]: the one JSON error shape; [`metrics`]: Prometheus.
 //! - [`static_files`]: the embedded browser viewer (`web/dist`) at `/`.
-//! - [`healthcheck`]: the `homcull healthcheck` client for container probes.
 //!
-//! [`start`] builds the state (GPU, worker, scenes loading in the background) and
-//! [`run`] serves a listener until a shutdown future resolves, then stops accepting,
-//! lets in-flight requests finish, and closes WebSockets with a close frame.
+//! [`serve`] builds the state (worker, scenes loading in the background), serves a
+//! listener until a shutdown future resolves, then stops accepting, lets in-flight
+//! requests finish, and closes WebSockets with a close frame.
 
+pub mod alloc;
+pub mod config;
 pub mod error;
-pub mod healthcheck;
 pub mod metrics;
 pub mod motion;
 pub mod routes;
 pub mod scene_files;
+pub mod scenes;
 pub mod state;
 pub mod static_files;
 pub mod store;
@@ -40,8 +43,9 @@ use tower_http::trace::TraceLayer;
 use utoipa::OpenApi;
 use utoipa_swagger_ui::SwaggerUi;
 
-use crate::config::ServeArgs;
-use crate::gpu::GpuContext;
+pub use config::Config;
+
+use crate::core::engine::Backend;
 use state::{AppState, Inner};
 use store::Store;
 
@@ -135,28 +139,42 @@ pub fn app(state: AppState) -> Router {
         .with_state(state)
 }
 
-/// Builds the server state: opens the data dir, parses the `--scene` files (an error
-/// names the file), starts the GPU worker, and makes the demo city, the `--scene` files
-/// and the stored scenes resident in the background (`/readyz` says when they are in).
-/// `gpu` is the adapter to use (`None`: the CPU reference).
-pub fn start(
-    config: ServeArgs,
-    gpu: Option<Arc<GpuContext>>,
-) -> std::io::Result<(AppState, watch::Sender<bool>)> {
-    state::tune_allocator();
+/// Serves `listener` with `config` on `backend` until `shutdown` resolves, then
+/// drains (see [`run`]). Before it listens it opens the data dir and parses the
+/// `--scene` files: an error there is returned at once and names what failed. The demo
+/// city, the `--scene` files and the stored scenes become resident in the background
+/// (`/readyz` says when they are in).
+pub async fn serve(
+    listener: TcpListener,
+    config: Config,
+    backend: Backend,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
+    let data_dir = config.data_dir.display().to_string();
+    let (state, shutdown_tx) = start(config, backend)?;
+    tracing::info!(
+        "homcull listening on http://{}/ (viewer at /, API docs at /docs) on {}; data in {data_dir}",
+        listener.local_addr()?,
+        state.adapter
+    );
+    run(listener, state, shutdown_tx, shutdown).await
+}
+
+/// Builds the server state: opens the data dir, parses the `--scene` files, starts the
+/// worker, and starts loading the scenes in the background.
+fn start(config: Config, backend: Backend) -> std::io::Result<(AppState, watch::Sender<bool>)> {
+    alloc::tune_allocator();
     let store = Store::open(&config.data_dir)?;
     let files = scene_files::load_all(&config.scenes).map_err(std::io::Error::other)?;
     let (shutdown_tx, shutdown) = watch::channel(false);
     let worker = worker::spawn(config.queue, config.gpu_batch, !config.no_batching);
-    let adapter = gpu
-        .as_ref()
-        .map_or("CPU reference (no GPU)".to_string(), |g| g.describe());
+    let adapter = backend.describe();
     let state = AppState(Arc::new(Inner {
         config,
         store,
         scenes: Default::default(),
         worker,
-        gpu,
+        backend,
         adapter,
         ready: AtomicBool::new(false),
         ws_clients: AtomicUsize::new(0),
@@ -200,7 +218,7 @@ pub fn start(
 /// Serves `listener` until `shutdown` resolves, then drains: no new connections,
 /// in-flight requests finish, WebSockets get a close frame. Gives up after the
 /// configured grace period.
-pub async fn run(
+async fn run(
     listener: TcpListener,
     state: AppState,
     shutdown_tx: watch::Sender<bool>,

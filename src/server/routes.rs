@@ -11,16 +11,15 @@ use axum::extract::{Path, Query, State};
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use homcull_proto::{
-    BatchRequest, BatchResponse, CullOptions, CullRequest, CullResponse, ObjectList, SceneInfo,
-    SceneList,
+    BatchRequest, BatchResponse, CullRequest, CullResponse, ObjectList, SceneInfo, SceneList,
 };
 use serde::Deserialize;
 
 use super::error::ApiError;
 use super::state::{AppState, GlbSource, SceneEntry};
-use crate::camera::Camera;
-use crate::cull::PoseResult;
-use crate::scene::load_glb_bytes;
+use crate::core::camera::Camera;
+use crate::core::cull::PoseResult;
+use crate::core::scene::load_glb_bytes;
 
 /// Liveness: the process answers.
 #[utoipa::path(get, path = "/healthz", responses((status = 200, description = "alive")))]
@@ -37,8 +36,8 @@ pub async fn readyz(State(state): State<AppState>) -> Response {
     let body = serde_json::json!({
         "ready": ready,
         "adapter": state.adapter,
-        "backend": state.gpu.as_ref().map_or("cpu".to_string(), |g| format!("{:?}", g.info.backend).to_lowercase()),
-        "cpu_fallback": state.gpu.is_none(),
+        "backend": state.backend.gpu().map_or("cpu".to_string(), |g| format!("{:?}", g.info.backend).to_lowercase()),
+        "cpu_fallback": state.backend.gpu().is_none(),
         "scenes": state.scene_list().len(),
     });
     let status = if ready {
@@ -228,17 +227,6 @@ pub async fn delete_scene(
     Ok(StatusCode::NO_CONTENT)
 }
 
-fn check_options(o: &CullOptions) -> Result<(), ApiError> {
-    if o.threshold > 0.0 && o.threshold <= 1.0 {
-        Ok(())
-    } else {
-        Err(ApiError::bad_request(
-            "invalid_options",
-            format!("threshold must be in (0, 1], got {}", o.threshold),
-        ))
-    }
-}
-
 fn response(r: PoseResult) -> CullResponse {
     CullResponse {
         visible: r.visible,
@@ -257,10 +245,13 @@ pub async fn cull(
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Json<CullResponse>, ApiError> {
     let req: CullRequest = ApiError::parse_json(&body.map_err(body_error)?)?;
-    check_options(&req.options)?;
+    req.options.validate()?;
     let cam = Camera::new(&req.pose)?;
     let scene = state.scene(&id)?;
-    let mut out = state.worker.cull(scene, vec![cam], req.options).await?;
+    let mut out = state
+        .worker
+        .cull(scene.engine.clone(), vec![cam], req.options)
+        .await?;
     Ok(Json(response(out.remove(0))))
 }
 
@@ -283,7 +274,7 @@ pub async fn cull_batch(
             format!("{} poses in one batch; the limit is {max}", req.poses.len()),
         ));
     }
-    check_options(&req.options)?;
+    req.options.validate()?;
     let cams = req
         .poses
         .iter()
@@ -297,7 +288,10 @@ pub async fn cull_batch(
     if cams.is_empty() {
         return Ok(Json(BatchResponse { results: vec![] }));
     }
-    let out = state.worker.cull(scene, cams, req.options).await?;
+    let out = state
+        .worker
+        .cull(scene.engine.clone(), cams, req.options)
+        .await?;
     Ok(Json(BatchResponse {
         results: out.into_iter().map(response).collect(),
     }))
@@ -341,7 +335,7 @@ async fn with_pose_plan<T: Send + 'static>(
     id: &str,
     body: Result<Bytes, BytesRejection>,
     max_pixels: u64,
-    f: impl FnOnce(&crate::cull::PreparedScene, crate::cull::PosePlan) -> T + Send + 'static,
+    f: impl FnOnce(&crate::core::cull::PreparedScene, crate::core::cull::PosePlan) -> T + Send + 'static,
 ) -> Result<T, ApiError> {
     let req: CullRequest = ApiError::parse_json(&body.map_err(body_error)?)?;
     let cam = Camera::new(&req.pose)?;
@@ -360,9 +354,12 @@ async fn with_pose_plan<T: Send + 'static>(
         .clone();
     let budget = state.config.budget;
     tokio::task::spawn_blocking(move || {
-        let mut settings = crate::cull::CullSettings::new(req.options, &prepared);
+        let mut settings = crate::core::cull::CullSettings::new(req.options, &prepared);
         settings.budget_triangles = budget;
-        f(&prepared, crate::cull::plan(&prepared, &cam, &settings))
+        f(
+            &prepared,
+            crate::core::cull::plan(&prepared, &cam, &settings),
+        )
     })
     .await
     .map_err(|e| ApiError::internal(format!("planning task failed: {e}")))
@@ -394,12 +391,14 @@ pub async fn pyramid(
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Json<serde_json::Value>, ApiError> {
     let levels = with_pose_plan(&state, &id, body, PYRAMID_MAX_PIXELS, |prepared, p| {
-        use crate::cull::CpuBackend;
-        use crate::hom::pyramid::{self, LevelLayout};
+        use crate::core::hom::ReferenceBackend;
+        use crate::core::hom::pyramid::{self, LevelLayout};
         let cam = &p.cam;
         let layout = LevelLayout::new(cam.width, cam.height);
-        let (opacity, _depth) =
-            pyramid::build(&layout, &CpuBackend::occluder_depth(&prepared.scene, &p));
+        let (opacity, _depth) = pyramid::build(
+            &layout,
+            &ReferenceBackend::occluder_depth(&prepared.scene, &p),
+        );
         (0..layout.levels())
             .map(|l| {
                 let (w, h) = layout.dims[l];

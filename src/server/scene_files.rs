@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 
 use super::store::valid_id;
-use crate::scene::{Scene, load_path, write_glb};
+use crate::core::scene::{Scene, load_path, write_glb};
 
 /// Longest id derived from a file name.
 const MAX_ID_LEN: usize = 64;
@@ -128,7 +128,7 @@ mod tests {
         let err = load_all(&[broken]).err().unwrap();
         assert!(err.contains("broken.glb"), "{err}");
 
-        let glb = crate::scene::write_glb(&crate::scene::demo_city_sized(2));
+        let glb = crate::core::scene::write_glb(&crate::core::scene::demo_city_sized(2));
         let (a, b) = (dir.path().join("x/city.glb"), dir.path().join("y/city.glb"));
         for p in [&a, &b] {
             std::fs::create_dir_all(p.parent().unwrap()).unwrap();
@@ -168,7 +168,7 @@ mod tests {
             panic!("a JSON glTF must be re-encoded");
         };
         assert_eq!(&bytes[..4], b"glTF");
-        let again = crate::scene::load_glb_bytes(bytes, "tri").unwrap();
+        let again = crate::core::scene::load_glb_bytes(bytes, "tri").unwrap();
         assert_eq!(again.objects.len(), 1);
         assert_eq!(again.triangle_count(), 1);
     }

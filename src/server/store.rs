@@ -19,7 +19,7 @@ use std::time::{Duration, SystemTime};
 
 use serde::{Deserialize, Serialize};
 
-use crate::occluders::OccluderParams;
+use crate::core::occluders::OccluderParams;
 
 /// Metadata written beside each scene.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

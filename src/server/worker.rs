@@ -1,6 +1,6 @@
 //! The one GPU worker: every cull (REST, batch, WebSocket) goes through it.
 //!
-//! Handlers never touch the GPU (DESIGN.md §2). They send a [`CullJob`] over a bounded
+//! Handlers never touch the GPU. They send a [`CullJob`] over a bounded
 //! channel and await a oneshot reply. The worker, a plain thread because culling
 //! blocks, takes the first waiting job, drains whatever else is waiting up to
 //! `gpu_batch` poses, groups the jobs by scene and options, and runs each group as
@@ -17,13 +17,18 @@ use homcull_proto::CullOptions;
 use tokio::sync::{mpsc, oneshot};
 
 use super::error::ApiError;
-use super::state::SceneEntry;
-use crate::camera::Camera;
-use crate::cull::PoseResult;
+use crate::core::camera::Camera;
+use crate::core::cull::PoseResult;
+use crate::core::engine::Engine;
+
+/// A scene's engine, shared between its registry entry and the jobs that cull on it.
+/// Only the worker locks it, so it is never contended.
+pub type SharedEngine = Arc<std::sync::Mutex<Engine>>;
 
 /// Poses of one request, to be culled with the same options on one scene.
 pub struct CullJob {
-    pub scene: Arc<SceneEntry>,
+    /// The engine of the scene the poses are culled on.
+    pub engine: SharedEngine,
     pub cams: Vec<Camera>,
     pub options: CullOptions,
     /// Objects (ascending IDs) whose occluders every pose of the job selects first
@@ -42,25 +47,25 @@ impl WorkerHandle {
     /// Culls `cams` on `scene`, waiting for the worker's answer.
     pub async fn cull(
         &self,
-        scene: Arc<SceneEntry>,
+        engine: SharedEngine,
         cams: Vec<Camera>,
         options: CullOptions,
     ) -> Result<Vec<PoseResult>, ApiError> {
-        self.cull_preferring(scene, cams, options, None).await
+        self.cull_preferring(engine, cams, options, None).await
     }
 
     /// [`WorkerHandle::cull`] with the occluders of `prefer` (ascending IDs) selected
     /// first for every pose.
     pub async fn cull_preferring(
         &self,
-        scene: Arc<SceneEntry>,
+        engine: SharedEngine,
         cams: Vec<Camera>,
         options: CullOptions,
         prefer: Option<Arc<Vec<u32>>>,
     ) -> Result<Vec<PoseResult>, ApiError> {
         let (reply, rx) = oneshot::channel();
         let job = CullJob {
-            scene,
+            engine,
             cams,
             options,
             prefer,
@@ -137,7 +142,7 @@ fn group_jobs(jobs: Vec<CullJob>) -> Vec<Vec<CullJob>> {
     let mut groups: HashMap<(usize, OptionsKey), Vec<CullJob>> = HashMap::new();
     let mut order = Vec::new();
     for job in jobs {
-        let key = (Arc::as_ptr(&job.scene) as usize, options_key(&job.options));
+        let key = (Arc::as_ptr(&job.engine) as usize, options_key(&job.options));
         if !groups.contains_key(&key) {
             order.push(key);
         }
@@ -152,14 +157,14 @@ fn group_jobs(jobs: Vec<CullJob>) -> Vec<Vec<CullJob>> {
 /// Runs one batch on a scene's engine, turning panics into errors so that one bad
 /// batch never takes the worker down.
 fn cull_batch(
-    scene: &SceneEntry,
+    engine: &SharedEngine,
     cams: &[Camera],
     options: CullOptions,
     prefer: &[&[u32]],
 ) -> Result<Vec<PoseResult>, ApiError> {
     let start = Instant::now();
     let out = std::panic::catch_unwind(AssertUnwindSafe(|| {
-        let mut engine = scene.engine.lock().unwrap_or_else(|p| p.into_inner());
+        let mut engine = engine.lock().unwrap_or_else(|p| p.into_inner());
         let settings = engine.settings(options);
         engine.cull_preferring(cams, &settings, prefer)
     }));
@@ -170,12 +175,7 @@ fn cull_batch(
         .increment(cams.len() as u64);
     match out {
         Ok(Ok(results)) => Ok(results),
-        Ok(Err(e)) => Err(match e {
-            crate::cull::CullError::Threshold(_) => {
-                ApiError::bad_request("invalid_options", e.to_string())
-            }
-            crate::cull::CullError::Gpu(g) => ApiError::internal(format!("GPU: {g}")),
-        }),
+        Ok(Err(e)) => Err(e.into()),
         Err(panic) => {
             let what = panic
                 .downcast_ref::<String>()
@@ -189,14 +189,14 @@ fn cull_batch(
 }
 
 fn run_group(group: Vec<CullJob>) {
-    let scene = group[0].scene.clone();
+    let engine = group[0].engine.clone();
     let options = group[0].options;
     let cams: Vec<Camera> = group.iter().flat_map(|j| j.cams.iter().cloned()).collect();
     let prefer: Vec<&[u32]> = group
         .iter()
         .flat_map(|j| std::iter::repeat_n(preferred(j), j.cams.len()))
         .collect();
-    match cull_batch(&scene, &cams, options, &prefer) {
+    match cull_batch(&engine, &cams, options, &prefer) {
         Ok(mut results) => {
             // Hand each job its slice, in order.
             for job in group.into_iter().rev() {
@@ -222,7 +222,7 @@ fn run_one_by_one(job: CullJob) {
     let mut out = Vec::with_capacity(job.cams.len());
     for cam in &job.cams {
         let prefer = [preferred(&job)];
-        match cull_batch(&job.scene, std::slice::from_ref(cam), job.options, &prefer) {
+        match cull_batch(&job.engine, std::slice::from_ref(cam), job.options, &prefer) {
             Ok(mut r) => out.append(&mut r),
             Err(e) => {
                 let _ = job.reply.send(Err(e));

@@ -37,9 +37,9 @@ use tokio::sync::{Mutex, Notify, mpsc};
 use super::error::ApiError;
 use super::motion::{HeldSet, MAX_HOLD_MS, MAX_LOOKAHEAD_MS, MotionEstimator, moved, union};
 use super::state::{AppState, SceneEntry, WsClientSlot};
-use crate::camera::Camera;
-use crate::cull::PoseResult;
-use crate::geom::Aabb;
+use crate::core::camera::Camera;
+use crate::core::cull::PoseResult;
+use crate::core::geom::Aabb;
 
 /// Largest message a client may send (a pose frame is 68 bytes).
 const MAX_CLIENT_MESSAGE: usize = 64 << 10;
@@ -101,12 +101,7 @@ pub async fn stream(
         deb: q.deb.unwrap_or(defaults.deb),
         refine: q.refine.unwrap_or(false),
     };
-    if !(options.threshold > 0.0 && options.threshold <= 1.0) {
-        return Err(ApiError::bad_request(
-            "invalid_options",
-            format!("threshold must be in (0, 1], got {}", options.threshold),
-        ));
-    }
+    options.validate()?;
     let smoothing = Smoothing {
         lookahead_ms: q.lookahead_ms.unwrap_or(0),
         hold_ms: q.hold_ms.unwrap_or(0),
@@ -199,7 +194,7 @@ async fn client(
             "protocol_version": PROTOCOL_VERSION,
             "scene": scene.info,
             "adapter": state.adapter,
-            "cpu_fallback": state.gpu.is_none(),
+            "cpu_fallback": state.backend.gpu().is_none(),
             "options": options,
             "smoothing": smoothing,
             "seen_first": seen_first,
@@ -286,7 +281,7 @@ async fn client(
         let prefer = seen_first.then(|| Arc::new(last_set.clone()));
         let answer = state
             .worker
-            .cull_preferring(scene.clone(), cams, options, prefer)
+            .cull_preferring(scene.engine.clone(), cams, options, prefer)
             .await
             .map(|results| smoothed(results, &mut held, &p.cam, &scene));
         seq = seq.wrapping_add(1);

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
-use homcull::gpu::{GpuContext, GpuOptions, require_gpu};
+use homcull::core::gpu::{GpuContext, GpuOptions, require_gpu};
 
 /// The test GPU. Without an adapter the test is skipped with a message, unless
 /// `HOMCULL_REQUIRE_GPU=1`, which makes it a failure.

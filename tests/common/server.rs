@@ -3,7 +3,8 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use homcull::config::ServeArgs;
+use homcull::core::engine::Backend;
+use homcull::server::Config;
 use homcull_proto::Pose;
 use tokio::sync::oneshot;
 
@@ -18,20 +19,19 @@ pub struct TestServer {
 }
 
 /// Defaults for tests: a private data dir, quick rescans, no frame-rate cap worth noticing.
-pub fn config(data_dir: &Path) -> ServeArgs {
-    ServeArgs {
-        addr: "127.0.0.1:0".parse().unwrap(),
+pub fn config(data_dir: &Path) -> Config {
+    Config {
         data_dir: data_dir.to_path_buf(),
         api_token: None,
         ws_max_fps: 10_000.0,
         rescan_s: 0,
-        ..ServeArgs::default()
+        ..Config::default()
     }
 }
 
 impl TestServer {
     /// Starts a server with its own temporary data dir.
-    pub async fn start(edit: impl FnOnce(&mut ServeArgs)) -> TestServer {
+    pub async fn start(edit: impl FnOnce(&mut Config)) -> TestServer {
         let tmp = tempfile::tempdir().unwrap();
         let mut s = Self::start_in(tmp.path(), edit).await;
         s._tmp = Some(tmp);
@@ -39,20 +39,24 @@ impl TestServer {
     }
 
     /// Starts a server on the given data dir and waits until `/readyz` says ready.
-    pub async fn start_in(data_dir: &Path, edit: impl FnOnce(&mut ServeArgs)) -> TestServer {
+    pub async fn start_in(data_dir: &Path, edit: impl FnOnce(&mut Config)) -> TestServer {
         let mut cfg = config(data_dir);
         edit(&mut cfg);
-        let listener = tokio::net::TcpListener::bind(cfg.addr).await.unwrap();
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
         let addr = listener.local_addr().unwrap();
-        let (state, shutdown_tx) = homcull::server::start(cfg, super::gpu()).unwrap();
-        let adapter = state.adapter.clone();
+        let backend = Backend::from(super::gpu());
+        let adapter = backend.describe();
         let (stop, stopped) = oneshot::channel::<()>();
-        let task = tokio::spawn(homcull::server::run(listener, state, shutdown_tx, async {
+        let task = tokio::spawn(homcull::server::serve(listener, cfg, backend, async {
             let _ = stopped.await;
         }));
         let base = format!("http://{addr}");
         let client = reqwest::Client::new();
         for _ in 0..600 {
+            assert!(
+                !task.is_finished(),
+                "the server stopped before it was ready"
+            );
             if let Ok(r) = client.get(format!("{base}/readyz")).send().await {
                 if r.status() == 200 {
                     break;
@@ -123,7 +127,7 @@ pub fn street_walk(n: usize, viewport: [u32; 2]) -> Vec<Pose> {
     (0..n)
         .map(|i| {
             let x = -150.0 + 300.0 * i as f32 / n as f32;
-            homcull::loadgen::street_pose([x, 1.7, 0.0], i as f32, viewport)
+            homcull::eval::loadgen::street_pose([x, 1.7, 0.0], i as f32, viewport)
         })
         .collect()
 }

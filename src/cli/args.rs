@@ -1,0 +1,344 @@
+//! The command line: one clap struct per subcommand, every flag also an `HOMCULL_*`
+//! environment variable where that makes sense. Defaults are documented here.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+use homcull_proto::{DebVariant, Method};
+
+use crate::core::occluders::OccluderParams;
+use crate::eval::loadgen::LoadConfig;
+use crate::eval::report::{ReportOptions, Section};
+use crate::server::Config;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "homcull",
+    version,
+    about = "Occlusion culling with Hierarchical Occlusion Maps on wgpu"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Serve scenes over HTTP and WebSocket (the default when no subcommand is given).
+    Serve(ServeArgs),
+    /// Exit 0 if the server's /healthz answers 200 within 2 s (for Docker HEALTHCHECK).
+    Healthcheck(HealthcheckArgs),
+    /// Drive a running server with N WebSocket or REST clients on loopback and report throughput and latency.
+    Loadgen(LoadgenArgs),
+    /// Cull one pose and print the visible IDs and stats as JSON.
+    Cull(CullArgs),
+    /// Run every method and the exact oracle on the same poses and report quality and speed.
+    Eval(EvalArgs),
+    /// Measure quality and speed on every scene and write DIR/report.md plus PNG plots.
+    Report(ReportArgs),
+}
+
+/// Which scene to load.
+#[derive(Debug, Clone, Args)]
+#[group(required = true, multiple = false)]
+pub struct SceneArg {
+    /// A glTF or GLB file.
+    #[arg(long, env = "HOMCULL_SCENE")]
+    pub scene: Option<PathBuf>,
+    /// The built-in procedural demo city.
+    #[arg(long)]
+    pub demo: bool,
+}
+
+/// Culling parameters shared by `cull` and `eval`.
+#[derive(Debug, Clone, Args)]
+pub struct CullParams {
+    /// Opacity threshold O_0 (1.0 = conservative; below 1 culls through small holes).
+    #[arg(long, default_value_t = 1.0)]
+    pub threshold: f32,
+    /// Depth estimation buffer: plane, tiles or raster.
+    #[arg(long, default_value = "raster")]
+    pub deb: DebVariant,
+    /// hom: the box test alone, without the per-pixel refinement of its survivors.
+    #[arg(long)]
+    pub no_refine: bool,
+    /// Occluder triangles rendered per pose.
+    #[arg(long, env = "HOMCULL_BUDGET", default_value_t = OccluderParams::default().budget_triangles)]
+    pub budget: u32,
+}
+
+impl CullParams {
+    /// The occluder database's parameters with this budget.
+    pub fn occluder_params(&self) -> OccluderParams {
+        OccluderParams {
+            budget_triangles: self.budget,
+            ..Default::default()
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct CullArgs {
+    #[command(flatten)]
+    pub scene: SceneArg,
+    /// The pose as JSON (the wire format of `POST /cull`), e.g. '{"position":[0,1.7,0],"look_at":[10,1.7,0]}'.
+    #[arg(long)]
+    pub pose: String,
+    /// hom, hzb, frustum or exact.
+    #[arg(long, default_value = "hom")]
+    pub method: Method,
+    #[command(flatten)]
+    pub params: CullParams,
+}
+
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    #[command(flatten)]
+    pub scene: SceneArg,
+    /// Sample N random poses where a person would stand.
+    #[arg(long, conflicts_with = "poses_file")]
+    pub random: Option<usize>,
+    /// Seed of the random pose sampler.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// A JSON array of poses in the wire format.
+    #[arg(long)]
+    pub poses_file: Option<PathBuf>,
+    /// Methods to compare with the oracle: hom, hom-refine, hom-raster, hom-tiles,
+    /// hom-plane, hzb, frustum (hom-DEB is the box test alone, hom-refine the raster DEB
+    /// with per-pixel refinement, plain hom follows --deb and --no-refine).
+    #[arg(long, value_delimiter = ',', default_value = "hom,hzb,frustum")]
+    pub methods: Vec<String>,
+    /// Viewport for sampled poses, WIDTHxHEIGHT.
+    #[arg(long, default_value = "960x540", value_parser = parse_viewport)]
+    pub viewport: [u32; 2],
+    /// Poses per GPU batch.
+    #[arg(long, default_value_t = 16)]
+    pub batch: usize,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Also measure GPU time per pass (timestamp queries; a second run per method).
+    #[arg(long)]
+    pub profile: bool,
+    #[command(flatten)]
+    pub params: CullParams,
+}
+
+/// Parses `WIDTHxHEIGHT`.
+pub fn parse_viewport(s: &str) -> Result<[u32; 2], String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("viewport `{s}` is not WIDTHxHEIGHT"))?;
+    let p = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|e| format!("viewport `{s}`: {e}"))
+    };
+    Ok([p(w)?, p(h)?])
+}
+
+/// `homcull serve`: every limit is a flag and a `HOMCULL_*` variable.
+#[derive(Debug, Clone, Args)]
+pub struct ServeArgs {
+    /// Address to listen on.
+    #[arg(long, env = "HOMCULL_ADDR", default_value = "127.0.0.1:8080")]
+    pub addr: std::net::SocketAddr,
+    /// Where uploaded scenes and their occluder caches live.
+    #[arg(long, env = "HOMCULL_DATA_DIR", default_value_os_t = Config::default().data_dir)]
+    pub data_dir: PathBuf,
+    /// When set, uploads and deletes need `Authorization: Bearer TOKEN`.
+    #[arg(long, env = "HOMCULL_API_TOKEN", hide_env_values = true)]
+    pub api_token: Option<String>,
+    /// Most poses in one `cull/batch` request.
+    #[arg(long, env = "HOMCULL_MAX_BATCH", default_value_t = Config::default().max_batch)]
+    pub max_batch: usize,
+    /// Largest GLB upload, bytes.
+    #[arg(long, env = "HOMCULL_MAX_UPLOAD_BYTES", default_value_t = Config::default().max_upload_bytes)]
+    pub max_upload_bytes: usize,
+    /// Largest JSON request body, bytes.
+    #[arg(long, env = "HOMCULL_MAX_JSON_BYTES", default_value_t = Config::default().max_json_bytes)]
+    pub max_json_bytes: usize,
+    /// Most concurrent WebSocket clients; more are refused with 503.
+    #[arg(long, env = "HOMCULL_MAX_WS_CLIENTS", default_value_t = Config::default().max_ws_clients)]
+    pub max_ws_clients: usize,
+    /// Most frames per second sent to one WebSocket client.
+    #[arg(long, env = "HOMCULL_WS_MAX_FPS", default_value_t = Config::default().ws_max_fps)]
+    pub ws_max_fps: f64,
+    /// A full frame at least every N frames (deltas in between).
+    #[arg(long, env = "HOMCULL_FULL_EVERY", default_value_t = Config::default().full_every)]
+    pub full_every: u32,
+    /// Most poses the GPU worker runs in one submission.
+    #[arg(long, env = "HOMCULL_GPU_BATCH", default_value_t = Config::default().gpu_batch)]
+    pub gpu_batch: usize,
+    /// Jobs waiting for the GPU worker before requests are refused with 503.
+    #[arg(long, env = "HOMCULL_QUEUE", default_value_t = Config::default().queue)]
+    pub queue: usize,
+    /// Run every pose in its own submission (for measuring what batching buys).
+    #[arg(long, env = "HOMCULL_NO_BATCHING")]
+    pub no_batching: bool,
+    /// Seconds before a request is answered 408.
+    #[arg(long, env = "HOMCULL_REQUEST_TIMEOUT_S", default_value_t = Config::default().request_timeout_s)]
+    pub request_timeout_s: u64,
+    /// Seconds a WebSocket send may block before the client is dropped.
+    #[arg(long, env = "HOMCULL_WS_SEND_TIMEOUT_S", default_value_t = Config::default().ws_send_timeout_s)]
+    pub ws_send_timeout_s: u64,
+    /// Seconds to finish in-flight work after SIGTERM/SIGINT.
+    #[arg(long, env = "HOMCULL_SHUTDOWN_GRACE_S", default_value_t = Config::default().shutdown_grace_s)]
+    pub shutdown_grace_s: u64,
+    /// Seconds between rescans of the data dir for scenes other replicas wrote (0 = never).
+    #[arg(long, env = "HOMCULL_RESCAN_S", default_value_t = Config::default().rescan_s)]
+    pub rescan_s: u64,
+    /// Occluder triangles rendered per pose.
+    #[arg(long, env = "HOMCULL_BUDGET", default_value_t = Config::default().budget)]
+    pub budget: u32,
+    /// Do not build the demo city (id `demo`).
+    #[arg(long, env = "HOMCULL_NO_DEMO")]
+    pub no_demo: bool,
+    /// A glTF/GLB file to serve read-only, under its file name without extension as
+    /// scene id (`--scene scenes/munich.glb` serves `munich`). Repeat the flag for more;
+    /// in the variable, separate paths with commas. A missing or broken file stops the
+    /// server at start.
+    #[arg(
+        long = "scene",
+        env = "HOMCULL_SCENES",
+        value_delimiter = ',',
+        value_name = "FILE"
+    )]
+    pub scenes: Vec<std::path::PathBuf>,
+}
+
+impl Default for ServeArgs {
+    fn default() -> Self {
+        Cli::parse_from(["homcull", "serve"])
+            .command
+            .and_then(|c| match c {
+                Command::Serve(a) => Some(a),
+                _ => None,
+            })
+            .expect("serve parses with no arguments")
+    }
+}
+
+impl ServeArgs {
+    /// The server's configuration from these flags (everything but the address).
+    pub fn config(&self) -> Config {
+        Config {
+            data_dir: self.data_dir.clone(),
+            api_token: self.api_token.clone(),
+            max_batch: self.max_batch,
+            max_upload_bytes: self.max_upload_bytes,
+            max_json_bytes: self.max_json_bytes,
+            max_ws_clients: self.max_ws_clients,
+            ws_max_fps: self.ws_max_fps,
+            full_every: self.full_every,
+            gpu_batch: self.gpu_batch,
+            queue: self.queue,
+            no_batching: self.no_batching,
+            request_timeout_s: self.request_timeout_s,
+            ws_send_timeout_s: self.ws_send_timeout_s,
+            shutdown_grace_s: self.shutdown_grace_s,
+            rescan_s: self.rescan_s,
+            budget: self.budget,
+            no_demo: self.no_demo,
+            scenes: self.scenes.clone(),
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct HealthcheckArgs {
+    /// URL of /healthz; default: port of HOMCULL_ADDR on 127.0.0.1.
+    #[arg(long, env = "HOMCULL_HEALTHCHECK_URL")]
+    pub url: Option<String>,
+}
+
+#[derive(Debug, Args)]
+pub struct LoadgenArgs {
+    /// Base URL of the server (loopback only).
+    #[arg(long, default_value = "http://127.0.0.1:8080")]
+    pub url: String,
+    /// Scene id.
+    #[arg(long, default_value = "demo")]
+    pub scene: String,
+    /// Concurrent clients.
+    #[arg(long, default_value_t = 32)]
+    pub clients: usize,
+    /// Seconds to run.
+    #[arg(long, default_value_t = 5.0)]
+    pub seconds: f64,
+    /// `ws` (one pose in flight per client) or `batch` (REST batches of --batch poses).
+    #[arg(long, default_value = "ws")]
+    pub mode: String,
+    /// Poses per REST batch in `batch` mode.
+    #[arg(long, default_value_t = 64)]
+    pub batch: usize,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `homcull report`: the evaluation and scaling report.
+#[derive(Debug, Clone, Args)]
+pub struct ReportArgs {
+    /// Where report.md and the plots go (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// A small, fast version (16 poses at 480x270, fewer sizes and clients): a smoke test.
+    #[arg(long)]
+    pub quick: bool,
+    /// The scenes to report on: every .glb in it, plus the demo city.
+    #[arg(long, default_value = "../shared/scenes")]
+    pub scenes_dir: PathBuf,
+    /// Which sections to run (comma-separated): quality (with the threshold curve),
+    /// budget, viewport, batch, objects, server. Default: all.
+    #[arg(long, value_delimiter = ',', value_enum)]
+    pub sections: Vec<ReportSection>,
+}
+
+/// A section of `homcull report`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ReportSection {
+    Quality,
+    Budget,
+    Viewport,
+    Batch,
+    Objects,
+    Server,
+}
+
+impl LoadgenArgs {
+    pub fn config(&self) -> LoadConfig {
+        LoadConfig {
+            url: self.url.clone(),
+            scene: self.scene.clone(),
+            clients: self.clients,
+            seconds: self.seconds,
+            mode: self.mode.clone(),
+            batch: self.batch,
+        }
+    }
+}
+
+impl ReportArgs {
+    pub fn options(&self) -> ReportOptions {
+        let sections = self
+            .sections
+            .iter()
+            .map(|s| match s {
+                ReportSection::Quality => Section::Quality,
+                ReportSection::Budget => Section::Budget,
+                ReportSection::Viewport => Section::Viewport,
+                ReportSection::Batch => Section::Batch,
+                ReportSection::Objects => Section::Objects,
+                ReportSection::Server => Section::Server,
+            })
+            .collect();
+        ReportOptions {
+            out: self.out.clone(),
+            quick: self.quick,
+            scenes_dir: self.scenes_dir.clone(),
+            sections,
+        }
+    }
+}

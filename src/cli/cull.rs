@@ -1,0 +1,38 @@
+//! `homcull cull`: one pose on one scene, the answer as JSON on stdout.
+
+use anyhow::{Context, Result};
+use homcull_proto::{CullOptions, CullResponse, Pose};
+
+use super::args::CullArgs;
+use super::{load_scene, open_backend};
+use crate::core::camera::Camera;
+use crate::core::resident::{Residency, ResidentScene};
+
+pub fn run(a: CullArgs) -> Result<()> {
+    let pose: Pose = serde_json::from_str(&a.pose).context("parsing --pose")?;
+    let cam = Camera::new(&pose)?;
+    let options = CullOptions {
+        method: a.method,
+        threshold: a.params.threshold,
+        deb: a.params.deb,
+        refine: !a.params.no_refine,
+    };
+    options.validate()?;
+    let scene = load_scene(&a.scene)?;
+    let mut resident = ResidentScene::assemble(
+        scene,
+        Residency::evaluation(a.params.occluder_params()),
+        open_backend()?,
+    );
+    let settings = resident.engine.settings(options);
+    let r = resident
+        .engine
+        .cull(std::slice::from_ref(&cam), &settings)?
+        .remove(0);
+    let out = CullResponse {
+        visible: r.visible,
+        stats: r.stats,
+    };
+    println!("{}", serde_json::to_string(&out)?);
+    Ok(())
+}

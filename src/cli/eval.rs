@@ -1,0 +1,76 @@
+//! `homcull eval`: every method and the exact oracle on the same poses, as a table or
+//! JSON.
+
+use anyhow::{Context, Result, bail};
+use homcull_proto::Pose;
+
+use super::args::EvalArgs;
+use super::{load_scene, open_backend};
+use crate::core::camera::Camera;
+use crate::core::resident::{Residency, ResidentScene};
+use crate::core::sampler::METHOD;
+use crate::eval::{MethodSpec, evaluate, table};
+
+pub fn run(a: EvalArgs) -> Result<()> {
+    let methods = a
+        .methods
+        .iter()
+        .map(|m| {
+            MethodSpec::parse(m, a.params.threshold, a.params.deb, !a.params.no_refine)
+                .map_err(anyhow::Error::msg)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let scene = load_scene(&a.scene)?;
+    let mut resident = ResidentScene::assemble(
+        scene,
+        Residency::evaluation(a.params.occluder_params()),
+        open_backend()?,
+    );
+    let poses: Vec<Pose> = match (&a.random, &a.poses_file) {
+        (Some(n), None) => {
+            let res = resident.sample_poses(*n, a.seed, a.viewport);
+            eprintln!(
+                "sampled {} poses in {} attempts: {METHOD}",
+                res.poses.len(),
+                res.attempts
+            );
+            if res.poses.len() < *n {
+                eprintln!("warning: only {} of {n} poses found", res.poses.len());
+            }
+            res.poses
+        }
+        (None, Some(path)) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            serde_json::from_str(&text)
+                .with_context(|| format!("parsing {} as a JSON array of poses", path.display()))?
+        }
+        _ => bail!("give --random N or --poses-file FILE"),
+    };
+    let cams = poses
+        .iter()
+        .enumerate()
+        .map(|(i, p)| Camera::new(p).with_context(|| format!("pose {i}")))
+        .collect::<Result<Vec<_>>>()?;
+    eprintln!(
+        "culling {} poses with {} methods on {} …",
+        cams.len(),
+        methods.len() + 1,
+        resident.engine.adapter()
+    );
+    let pvs = resident.pvs.take();
+    let report = evaluate(
+        &mut resident.engine,
+        &cams,
+        &methods,
+        a.batch,
+        pvs.as_ref(),
+        a.profile,
+    )?;
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        print!("{}", table(&report));
+    }
+    Ok(())
+}

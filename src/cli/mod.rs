@@ -1,0 +1,91 @@
+//! The command line: clap's argument structs ([`args`]) and one runner per subcommand.
+//! The only layer that knows clap: it turns flags into the plain configurations the
+//! library takes ([`crate::server::Config`], [`crate::eval::loadgen::LoadConfig`],
+//! [`crate::eval::report::ReportOptions`]) and chooses the backend.
+
+pub mod args;
+pub mod cull;
+pub mod eval;
+pub mod healthcheck;
+pub mod serve;
+
+use anyhow::{Context, Result};
+use clap::Parser;
+
+use crate::core::engine::Backend;
+use crate::core::scene::{Scene, demo_city, load_path};
+use args::{Cli, Command, HealthcheckArgs, LoadgenArgs, ReportArgs, SceneArg, ServeArgs};
+
+/// Parses the command line and runs the subcommand (`serve` when none is given).
+pub fn run() -> Result<()> {
+    match Cli::parse().command {
+        Some(Command::Serve(a)) => serve::run(a),
+        Some(Command::Healthcheck(a)) => healthcheck(a),
+        Some(Command::Loadgen(a)) => loadgen(a),
+        Some(Command::Cull(a)) => cull::run(a),
+        Some(Command::Eval(a)) => eval::run(a),
+        Some(Command::Report(a)) => report(a),
+        None => serve::run(ServeArgs::default()),
+    }
+}
+
+/// The backend every subcommand culls with, with a warning on the slow fallback.
+pub fn open_backend() -> Result<Backend> {
+    let backend = Backend::open()?;
+    if backend.gpu().is_none() {
+        eprintln!("warning: no GPU adapter; using the CPU reference implementation (slow)");
+    }
+    Ok(backend)
+}
+
+/// The scene `--scene FILE` or `--demo` names, with a line on what was loaded.
+pub fn load_scene(arg: &SceneArg) -> Result<Scene> {
+    if arg.demo {
+        return Ok(demo_city());
+    }
+    let path = arg.scene.as_ref().context("give --scene FILE or --demo")?;
+    eprintln!("loading {} …", path.display());
+    let scene = load_path(path).with_context(|| format!("loading {}", path.display()))?;
+    eprintln!(
+        "loaded {}: {} objects, {} triangles, {} test boxes{}",
+        scene.name,
+        scene.objects.len(),
+        scene.triangle_count(),
+        scene.boxes.len(),
+        if scene.warnings.is_empty() {
+            String::new()
+        } else {
+            format!(", {} warnings", scene.warnings.len())
+        }
+    );
+    Ok(scene)
+}
+
+fn healthcheck(a: HealthcheckArgs) -> Result<()> {
+    let url = a.url.unwrap_or_else(healthcheck::default_url);
+    match healthcheck::check(&url, std::time::Duration::from_secs(2)) {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            eprintln!("unhealthy: {e}");
+            std::process::exit(1);
+        }
+    }
+}
+
+fn loadgen(a: LoadgenArgs) -> Result<()> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    let report = rt.block_on(crate::eval::loadgen::run(&a.config()))?;
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!("{}", report.summary());
+    }
+    Ok(())
+}
+
+fn report(a: ReportArgs) -> Result<()> {
+    crate::eval::report::run(&a.options(), open_backend()?)
+}

@@ -1,0 +1,218 @@
+//! The wgpu adapter, device and queue homcull renders with, and the optional features
+//! it found there. The lowest floor of the GPU backend: every pass is built on it.
+
+use crate::core::cull::CullError;
+
+/// Why the GPU could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("no GPU adapter found: {0}")]
+    NoAdapter(String),
+    #[error("could not open the GPU device: {0}")]
+    Device(String),
+    #[error("GPU readback failed: {0}")]
+    Readback(String),
+}
+
+impl From<GpuError> for CullError {
+    fn from(e: GpuError) -> Self {
+        CullError::Backend {
+            backend: "GPU",
+            message: e.to_string(),
+        }
+    }
+}
+
+/// Optional adapter features homcull uses where the adapter has them. Turning one
+/// off exercises the path that adapters without it take (tests do).
+#[derive(Debug, Clone, Copy)]
+pub struct GpuOptions {
+    /// See [`GpuDevice::indirect_draws`]; env `HOMCULL_NO_INDIRECT` turns it off.
+    pub indirect_draws: bool,
+    /// See [`GpuDevice::early_depth_test`]; env `HOMCULL_NO_EARLY_Z` turns it off.
+    pub early_depth_test: bool,
+}
+
+impl GpuOptions {
+    pub fn from_env() -> Self {
+        GpuOptions {
+            indirect_draws: std::env::var_os("HOMCULL_NO_INDIRECT").is_none(),
+            early_depth_test: std::env::var_os("HOMCULL_NO_EARLY_Z").is_none(),
+        }
+    }
+}
+
+/// The wgpu device and queue homcull renders with.
+pub struct GpuDevice {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    /// All of a pose's draws go out as one `multi_draw_indexed_indirect` (needs
+    /// indirect execution and a non-zero first instance in indirect draws); without
+    /// it, one draw call per object.
+    pub indirect_draws: bool,
+    /// The refinement tests its fragments against the occluders' own depth buffer
+    /// before its fragment shader runs (`@early_depth_test(force)`, feature
+    /// `SHADER_EARLY_DEPTH_TEST`); without it, the shader compares with the occlusion
+    /// map (`crate::core::gpu::refine`).
+    pub early_depth_test: bool,
+    /// Timestamps can be written between passes (`TIMESTAMP_QUERY_INSIDE_ENCODERS`),
+    /// so batches can be profiled pass by pass (`crate::core::gpu::profile`).
+    pub timestamps: bool,
+}
+
+impl GpuDevice {
+    /// Opens the adapter chosen by `WGPU_ADAPTER_NAME` / `WGPU_BACKEND` /
+    /// `WGPU_POWER_PREF`, or the default one.
+    pub fn new() -> Result<Self, GpuError> {
+        Self::with_options(GpuOptions::from_env())
+    }
+
+    /// [`GpuDevice::new`] using only the optional features `options` allows.
+    pub fn with_options(options: GpuOptions) -> Result<Self, GpuError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        if std::env::var_os("WGPU_BACKEND").is_none() {
+            // Vulkan/Metal/DX12 only: GL lacks what the passes need and its probe is noisy.
+            desc.backends = wgpu::Backends::PRIMARY;
+        }
+        let instance = wgpu::Instance::new(desc);
+        let adapter = pollster::block_on(choose_adapter(&instance))?;
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        if limits.max_storage_buffers_per_shader_stage < 8 {
+            return Err(GpuError::NoAdapter(format!(
+                "adapter {} allows {} storage buffers per stage, homcull needs 8",
+                info.name, limits.max_storage_buffers_per_shader_stage
+            )));
+        }
+        let indirect_draws = adapter
+            .features()
+            .contains(wgpu::Features::INDIRECT_FIRST_INSTANCE)
+            && adapter
+                .get_downlevel_capabilities()
+                .flags
+                .contains(wgpu::DownlevelFlags::INDIRECT_EXECUTION)
+            && options.indirect_draws;
+        let early_depth_test = options.early_depth_test
+            && adapter
+                .features()
+                .contains(wgpu::Features::SHADER_EARLY_DEPTH_TEST);
+        let timestamp_features =
+            wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
+        let timestamps = adapter.features().contains(timestamp_features);
+        let mut required_features = wgpu::Features::empty();
+        if timestamps {
+            required_features |= timestamp_features;
+        }
+        if indirect_draws {
+            required_features |= wgpu::Features::INDIRECT_FIRST_INSTANCE;
+        }
+        if early_depth_test {
+            required_features |= wgpu::Features::SHADER_EARLY_DEPTH_TEST;
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("homcull"),
+            required_limits: limits,
+            required_features,
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device(e.to_string()))?;
+        Ok(GpuDevice {
+            device,
+            queue,
+            info,
+            indirect_draws,
+            early_depth_test,
+            timestamps,
+        })
+    }
+
+    /// A one-line description: adapter name and backend.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({:?}, {:?})",
+            self.info.name, self.info.backend, self.info.device_type
+        )
+    }
+
+    /// A bind group layout from `entries` and a pipeline layout holding just it, the
+    /// shape every compute pass here uses.
+    pub(crate) fn compute_layout(
+        &self,
+        label: &str,
+        entries: &[wgpu::BindGroupLayoutEntry],
+    ) -> (wgpu::BindGroupLayout, wgpu::PipelineLayout) {
+        let bind = self
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(label),
+                entries,
+            });
+        let pipeline = self
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(label),
+                bind_group_layouts: &[Some(&bind)],
+                immediate_size: 0,
+            });
+        (bind, pipeline)
+    }
+
+    /// A compute pipeline for one entry point of `module`.
+    pub(crate) fn compute_pipeline(
+        &self,
+        layout: &wgpu::PipelineLayout,
+        module: &wgpu::ShaderModule,
+        entry: &str,
+    ) -> wgpu::ComputePipeline {
+        self.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(layout),
+                module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+    }
+
+    /// Compiles a kernel with the shared definitions of `common.wgsl` prepended.
+    pub fn shader(&self, label: &str, source: &str) -> wgpu::ShaderModule {
+        let code = format!("{}\n{}", include_str!("shaders/common.wgsl"), source);
+        self.device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(code.into()),
+            })
+    }
+}
+
+/// The adapter `WGPU_ADAPTER_NAME` names (a case-insensitive substring of its name),
+/// else the default one for `WGPU_POWER_PREF`. Unlike wgpu's own helper, a name that
+/// matches nothing is an error that lists the adapters there are, not a panic.
+async fn choose_adapter(instance: &wgpu::Instance) -> Result<wgpu::Adapter, GpuError> {
+    if let Ok(wanted) = std::env::var("WGPU_ADAPTER_NAME") {
+        let adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
+        let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+        return adapters
+            .into_iter()
+            .find(|a| {
+                a.get_info()
+                    .name
+                    .to_lowercase()
+                    .contains(&wanted.to_lowercase())
+            })
+            .ok_or_else(|| {
+                GpuError::NoAdapter(format!(
+                    "WGPU_ADAPTER_NAME={wanted:?} matches none of the adapters: {names:?}"
+                ))
+            });
+    }
+    instance
+        .request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::from_env().unwrap_or_default(),
+            ..Default::default()
+        })
+        .await
+        .map_err(|e| GpuError::NoAdapter(e.to_string()))
+}

@@ -1,0 +1,282 @@
+//! Occluder raster and oracle ID raster.
+//!
+//! Both draw scene triangles with the same vertex stage (`raster.wgsl`, `@invariant`
+//! position) and the same reversed-Z depth test, so a pixel an occluder covers in the
+//! occlusion map is a pixel it covers in the oracle's ID buffer: HOM's coverage and the
+//! ground truth never disagree by rasterization. The occluder raster writes the view
+//! depth of the nearest occluder per pixel (0 = uncovered) to an `r32float` target and
+//! keeps its depth buffer for the refinement (`crate::core::gpu::refine`); the oracle writes
+//! the nearest object's ID to an `r32uint` target.
+
+use super::device::GpuDevice;
+use super::encode::{UNIFORM_SLOT, uniform_entry};
+use super::scene_buffers::SceneBuffers;
+
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub const OCCLUSION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+pub const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
+/// Cleared ID: no object at this pixel.
+pub const NO_OBJECT: u32 = u32::MAX;
+
+/// What a raster pass writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RasterKind {
+    OccluderDepth,
+    ObjectIds,
+}
+
+/// The two raster pipelines and their pose binding.
+pub struct RasterPass {
+    pub pose_layout: wgpu::BindGroupLayout,
+    /// `raster.wgsl`: the refinement pass draws with the same vertex stage.
+    pub module: wgpu::ShaderModule,
+    depth_pipeline: wgpu::RenderPipeline,
+    id_pipeline: wgpu::RenderPipeline,
+}
+
+const VERTEX_BUFFERS: [Option<wgpu::VertexBufferLayout<'static>>; 1] =
+    [Some(wgpu::VertexBufferLayout {
+        array_stride: 12,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+    })];
+
+impl RasterPass {
+    pub fn new(ctx: &GpuDevice) -> Self {
+        let device = &ctx.device;
+        // The early-depth entry point validates only where the feature is enabled.
+        let source = if ctx.early_depth_test {
+            concat!(
+                include_str!("shaders/raster.wgsl"),
+                include_str!("shaders/refine_early.wgsl")
+            )
+        } else {
+            include_str!("shaders/raster.wgsl")
+        };
+        let module = ctx.shader("raster", source);
+        let pose_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("pose"),
+            entries: &[uniform_entry(0, true, wgpu::ShaderStages::VERTEX)],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("raster"),
+            bind_group_layouts: &[Some(&pose_layout)],
+            immediate_size: 0,
+        });
+        // Nearest wins (reversed Z).
+        let pipeline = |fs: &str, format: wgpu::TextureFormat| {
+            triangle_pipeline(
+                device,
+                &layout,
+                &module,
+                fs,
+                &[Some(format.into())],
+                DepthTest::KeepNearest,
+            )
+        };
+        RasterPass {
+            depth_pipeline: pipeline("fs_depth", OCCLUSION_FORMAT),
+            id_pipeline: pipeline("fs_id", ID_FORMAT),
+            pose_layout,
+            module,
+        }
+    }
+
+    /// Binds the scene's geometry and draws `draws` in an open render pass.
+    pub fn draw(pass: &mut wgpu::RenderPass<'_>, scene: &SceneBuffers, draws: DrawList<'_>) {
+        pass.set_vertex_buffer(0, scene.vertices.slice(..));
+        pass.set_index_buffer(scene.indices.slice(..), wgpu::IndexFormat::Uint32);
+        match draws {
+            DrawList::Direct(list) => {
+                for (first, count, id) in list {
+                    if count > 0 {
+                        pass.draw_indexed(first..first + count, 0, id..id + 1);
+                    }
+                }
+            }
+            DrawList::Indirect(buffer, first, count) => {
+                let stride = std::mem::size_of::<wgpu::util::DrawIndexedIndirectArgs>() as u64;
+                pass.multi_draw_indexed_indirect(buffer, first as u64 * stride, count);
+            }
+        }
+    }
+
+    /// Records one pose's raster into `target` (one array layer) and `depth` (the
+    /// occluders' depth is kept for the refinement; the oracle's is discarded).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        kind: RasterKind,
+        target: &wgpu::TextureView,
+        depth: &wgpu::TextureView,
+        poses: &wgpu::BindGroup,
+        pose_index: u32,
+        scene: &SceneBuffers,
+        draws: DrawList<'_>,
+    ) {
+        let clear = match kind {
+            RasterKind::OccluderDepth => wgpu::Color::TRANSPARENT,
+            RasterKind::ObjectIds => wgpu::Color {
+                r: NO_OBJECT as f64,
+                g: 0.0,
+                b: 0.0,
+                a: 0.0,
+            },
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("raster"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(clear),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.0),
+                    store: match kind {
+                        RasterKind::OccluderDepth => wgpu::StoreOp::Store,
+                        RasterKind::ObjectIds => wgpu::StoreOp::Discard,
+                    },
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(match kind {
+            RasterKind::OccluderDepth => &self.depth_pipeline,
+            RasterKind::ObjectIds => &self.id_pipeline,
+        });
+        pass.set_bind_group(0, poses, &[(pose_index as u64 * UNIFORM_SLOT) as u32]);
+        Self::draw(&mut pass, scene, draws);
+    }
+}
+
+/// How a raster pipeline uses the depth buffer (reversed Z: larger is nearer).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DepthTest {
+    /// Keep the nearest fragment per pixel (occluder and oracle rasters).
+    KeepNearest,
+    /// Pass fragments at or in front of what the buffer holds; write nothing.
+    NotBehind,
+    /// Every fragment runs; nothing is written.
+    Off,
+}
+
+/// A pipeline drawing scene triangles with `raster.wgsl`'s vertex stage (`@invariant`
+/// position, shared by every raster pass so their coverage and depth are identical)
+/// and the fragment entry `fs`.
+pub fn triangle_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    fs: &str,
+    targets: &[Option<wgpu::ColorTargetState>],
+    depth_test: DepthTest,
+) -> wgpu::RenderPipeline {
+    let (compare, write) = match depth_test {
+        DepthTest::KeepNearest => (wgpu::CompareFunction::Greater, true),
+        DepthTest::NotBehind => (wgpu::CompareFunction::GreaterEqual, false),
+        DepthTest::Off => (wgpu::CompareFunction::Always, false),
+    };
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(fs),
+        layout: Some(layout),
+        vertex: vertex_state(module),
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(write),
+            depth_compare: Some(compare),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(fs),
+            compilation_options: Default::default(),
+            targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+fn vertex_state(module: &wgpu::ShaderModule) -> wgpu::VertexState<'_> {
+    wgpu::VertexState {
+        module,
+        entry_point: Some("vs"),
+        compilation_options: Default::default(),
+        buffers: &VERTEX_BUFFERS,
+    }
+}
+
+/// One pose's object draws: `(first_index, index_count, object_id)` each, either
+/// recorded one call per object or read from an indirect buffer (`first` and `count`
+/// in draws) in one call.
+pub enum DrawList<'a> {
+    Direct(Vec<(u32, u32, u32)>),
+    Indirect(&'a wgpu::Buffer, u32, u32),
+}
+
+/// The indirect arguments of every pose's draws in one buffer, and each pose's
+/// `(first, count)` in it.
+pub fn indirect_draws(
+    device: &wgpu::Device,
+    per_pose: impl Iterator<Item = Vec<(u32, u32, u32)>>,
+    usage: wgpu::BufferUsages,
+) -> (wgpu::Buffer, Vec<(u32, u32)>) {
+    use wgpu::util::DeviceExt;
+    let mut args: Vec<u8> = Vec::new();
+    let mut ranges = Vec::new();
+    let mut n = 0u32;
+    for draws in per_pose {
+        let first = n;
+        for (first_index, index_count, id) in draws.into_iter().filter(|d| d.1 > 0) {
+            let a = wgpu::util::DrawIndexedIndirectArgs {
+                index_count,
+                instance_count: 1,
+                first_index,
+                base_vertex: 0,
+                first_instance: id,
+            };
+            args.extend_from_slice(a.as_bytes());
+            n += 1;
+        }
+        ranges.push((first, n - first));
+    }
+    if args.is_empty() {
+        args.resize(
+            std::mem::size_of::<wgpu::util::DrawIndexedIndirectArgs>(),
+            0,
+        );
+    }
+    let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("indirect draws"),
+        contents: &args,
+        usage: wgpu::BufferUsages::INDIRECT | usage,
+    });
+    (buffer, ranges)
+}
+
+/// Draw calls `(first_index, index_count, object_id)` for the given objects.
+pub(crate) fn object_draws(ranges: &[(u32, u32)], ids: &[u32]) -> Vec<(u32, u32, u32)> {
+    ids.iter()
+        .map(|&id| {
+            let (first, count) = ranges[id as usize];
+            (first, count, id)
+        })
+        .collect()
+}

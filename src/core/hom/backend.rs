@@ -1,0 +1,107 @@
+//! [`ReferenceBackend`]: the CPU reference of every pass behind the [`Culler`] seam.
+//! Slow and simple on purpose: it is the test oracle of the GPU passes, and the
+//! fallback when no adapter exists.
+
+use homcull_proto::Method;
+
+use super::pyramid::{self, LevelLayout};
+use super::raster::raster_depth;
+use super::test::{PyramidView, hom_occluded, hzb_occluded};
+use super::{level_thresholds, oracle, refine, triangles_of};
+use crate::core::cull::{
+    CullError, CullSettings, Culler, PosePlan, PreparedScene, empty_mask, has_bit, set_bit,
+};
+use crate::core::scene::Scene;
+
+/// The CPU reference of every pass.
+#[derive(Default)]
+pub struct ReferenceBackend;
+
+impl ReferenceBackend {
+    /// Level-0 occluder depth map of one pose (0 = uncovered).
+    pub fn occluder_depth(scene: &Scene, p: &PosePlan) -> Vec<f32> {
+        let mut depth = vec![0.0; (p.cam.width * p.cam.height) as usize];
+        raster_depth(
+            &p.cam,
+            triangles_of(scene, &p.occluders.ids).map(|(_, t)| t),
+            &mut depth,
+        );
+        depth
+    }
+
+    /// Visibility bitmask of the per-object test on a given pyramid.
+    pub fn test_boxes(
+        scene: &Scene,
+        p: &PosePlan,
+        s: &CullSettings,
+        layout: &LevelLayout,
+        opacity: &[f32],
+        depth: &[f32],
+    ) -> Vec<u32> {
+        let mut mask = empty_mask(scene.objects.len());
+        let view = PyramidView {
+            layout,
+            opacity,
+            depth,
+        };
+        let thr = level_thresholds(s.options.threshold, layout.levels());
+        for &b in &p.test_boxes {
+            let tb = &scene.boxes[b as usize];
+            if has_bit(&mask, tb.object) {
+                continue; // another sub-bound of this object is already visible
+            }
+            let Some(r) = p.cam.project_box(&tb.aabb) else {
+                continue;
+            };
+            let hidden = match s.options.method {
+                Method::Hzb => hzb_occluded(&r, &view),
+                _ => hom_occluded(&r, &view, &thr, s.options.deb, &p.deb),
+            };
+            if !hidden {
+                set_bit(&mut mask, tb.object);
+            }
+        }
+        mask
+    }
+
+    /// See [`refine::refine`].
+    pub fn refine(scene: &Scene, p: &PosePlan, occluders: &[f32], mask: &mut [u32]) {
+        refine::refine(scene, p, occluders, mask)
+    }
+
+    /// See [`oracle::exact`].
+    pub fn exact(scene: &Scene, p: &PosePlan) -> Vec<u32> {
+        oracle::exact(scene, p)
+    }
+}
+
+impl Culler for ReferenceBackend {
+    fn describe(&self) -> String {
+        "CPU reference (no GPU)".into()
+    }
+
+    fn visibility(
+        &mut self,
+        prep: &PreparedScene,
+        plans: &[PosePlan],
+        s: &CullSettings,
+    ) -> Result<Vec<Vec<u32>>, CullError> {
+        let scene = &prep.scene;
+        Ok(plans
+            .iter()
+            .map(|p| match s.options.method {
+                Method::Exact => oracle::exact(scene, p),
+                Method::Hom | Method::Hzb | Method::Frustum => {
+                    let layout = LevelLayout::new(p.cam.width, p.cam.height);
+                    let occluders = Self::occluder_depth(scene, p);
+                    let (opacity, depth) = pyramid::build(&layout, &occluders);
+                    let mut mask = Self::test_boxes(scene, p, s, &layout, &opacity, &depth);
+                    if s.refines() {
+                        refine::refine(scene, p, &occluders, &mut mask);
+                    }
+                    mask
+                }
+            })
+            .collect())
+    }
+}

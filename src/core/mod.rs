@@ -1,0 +1,30 @@
+//! The culling core: everything needed to answer "what may be visible from this pose?"
+//! for a resident scene, with no notion of a network, a command line or an evaluation.
+//!
+//! Read in data-flow order:
+//! - [`geom`], [`camera`]: boxes, planes, poses, projection and every convention.
+//! - [`scene`]: glTF loading, objects and their test boxes, the demo city.
+//! - [`bvh`], [`occluders`]: the object BVH and the occluder database with its
+//!   per-pose selection.
+//! - [`cull`]: the seam between callers and backends: the [`cull::Culler`] trait,
+//!   settings, the per-pose plan, pass times and errors.
+//! - [`hom`]: the CPU reference backend, the algorithm pass by pass; every GPU pass's
+//!   twin and test oracle.
+//! - [`gpu`]: the wgpu backend, the same passes batched on a device.
+//! - [`engine`], [`resident`]: a prepared scene with its backend, and the one place a
+//!   resident scene (engine, PVS, walk start, object table) is assembled.
+//! - [`pvs`], [`sampler`]: what a scene knows of its own playable space (the maps'
+//!   potentially-visible sets, street-level eyes), used to serve and to evaluate.
+
+pub mod bvh;
+pub mod camera;
+pub mod cull;
+pub mod engine;
+pub mod geom;
+pub mod gpu;
+pub mod hom;
+pub mod occluders;
+pub mod pvs;
+pub mod resident;
+pub mod sampler;
+pub mod scene;

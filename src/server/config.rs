@@ -1,0 +1,73 @@
+//! [`Config`]: every limit and setting of a server, as a plain struct. The defaults
+//! live here, once; the command line (`cli::args::ServeArgs`) takes them from here and
+//! maps each flag and `HOMCULL_*` variable onto a field.
+
+use std::path::PathBuf;
+
+use crate::core::occluders::OccluderParams;
+
+/// How a server runs.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// Where uploaded scenes and their occluder caches live.
+    pub data_dir: PathBuf,
+    /// When set, uploads and deletes need `Authorization: Bearer TOKEN`.
+    pub api_token: Option<String>,
+    /// Most poses in one `cull/batch` request.
+    pub max_batch: usize,
+    /// Largest GLB upload, bytes.
+    pub max_upload_bytes: usize,
+    /// Largest JSON request body, bytes.
+    pub max_json_bytes: usize,
+    /// Most concurrent WebSocket clients; more are refused with 503.
+    pub max_ws_clients: usize,
+    /// Most frames per second sent to one WebSocket client.
+    pub ws_max_fps: f64,
+    /// A full frame at least every N frames (deltas in between).
+    pub full_every: u32,
+    /// Most poses the worker runs in one submission.
+    pub gpu_batch: usize,
+    /// Jobs waiting for the worker before requests are refused with 503.
+    pub queue: usize,
+    /// Run every pose in its own submission (for measuring what batching buys).
+    pub no_batching: bool,
+    /// Seconds before a request is answered 408.
+    pub request_timeout_s: u64,
+    /// Seconds a WebSocket send may block before the client is dropped.
+    pub ws_send_timeout_s: u64,
+    /// Seconds to finish in-flight work after the shutdown signal.
+    pub shutdown_grace_s: u64,
+    /// Seconds between rescans of the data dir for scenes other replicas wrote (0 = never).
+    pub rescan_s: u64,
+    /// Occluder triangles rendered per pose.
+    pub budget: u32,
+    /// Do not build the demo city (id `demo`).
+    pub no_demo: bool,
+    /// glTF/GLB files served read-only under their file name without extension.
+    pub scenes: Vec<PathBuf>,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            data_dir: PathBuf::from("./data"),
+            api_token: None,
+            max_batch: 1024,
+            max_upload_bytes: 256 << 20,
+            max_json_bytes: 8 << 20,
+            max_ws_clients: 1000,
+            ws_max_fps: 120.0,
+            full_every: 120,
+            gpu_batch: 64,
+            queue: 4096,
+            no_batching: false,
+            request_timeout_s: 60,
+            ws_send_timeout_s: 10,
+            shutdown_grace_s: 10,
+            rescan_s: 2,
+            budget: OccluderParams::default().budget_triangles,
+            no_demo: false,
+            scenes: Vec::new(),
+        }
+    }
+}
