@@ -1,4 +1,4 @@
-//! DESIGN.md §4's last lever, measured: occluders that are themselves hidden waste the
+//! Temporal coherence, measured: occluders that are themselves hidden waste the
 //! triangle budget, so a walk can select the objects it saw at its previous pose first
 //! (`plan_preferring`). For each scene and budget, short walks (from sampled street-level
 //! poses: 10 steps of 0.1 m forward, turning 2° a step) are culled with HOM as served

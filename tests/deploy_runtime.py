@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Runtime checks of homcull's deployment (issue 7), with the release binary and no
+"""Runtime checks of homcull's deployment, with the release binary and no
 container engine:
 
 run_as_image(bin)

@@ -1,5 +1,5 @@
 //! Every GPU pass against its CPU twin on the same input, and property tests of the
-//! conservativeness claim on random scenes (DESIGN.md §7).
+//! conservativeness claim on random scenes (ARCHITECTURE.md, "Conservativeness").
 
 mod common;
 

@@ -1,4 +1,4 @@
-//! Resident memory of uploaded scenes (issue 4's target: at most 4× the GLB's size per
+//! Resident memory of uploaded scenes (the target: at most 4× the GLB's size per
 //! scene on top of a fixed overhead). The server runs as its own process, so that its
 //! resident set (`VmRSS`) is its own, not this test harness's.
 //!

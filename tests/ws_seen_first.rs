@@ -1,4 +1,4 @@
-//! The stream option `seen_first` (temporal coherence, DESIGN.md §4): occluders the
+//! The stream option `seen_first` (temporal coherence): occluders the
 //! client saw at its previous pose are selected first. With an occluder budget too small
 //! for the whole frustum, a walk must then cull more than nearest-first selection
 //! (`POST /cull`) does, and still never miss an object the exact oracle sees.

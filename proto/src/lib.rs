@@ -24,7 +24,7 @@ pub use rest::*;
 /// Version 2 shrank the header and the stats block so that deltas stay small.
 pub const PROTOCOL_VERSION: u32 = 2;
 
-/// A camera pose, as in DESIGN.md §3.
+/// A camera pose (conventions in ARCHITECTURE.md: right-handed, Y up, metres).
 ///
 /// Orientation is either `rotation` (a unit quaternion `[x, y, z, w]`; the camera looks
 /// along its local −Z with +Y up, as a glTF camera) or `look_at` (a world point) with an
@@ -128,7 +128,7 @@ impl std::str::FromStr for Method {
     }
 }
 
-/// Depth estimation buffer variant (DESIGN.md §4, step 5).
+/// Depth estimation buffer variant: how HOM's test bounds the occluders' depth.
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]

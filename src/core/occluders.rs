@@ -1,8 +1,8 @@
 //! Occluder database: which objects may occlude, and which of them to render per pose.
 //!
 //! Preprocessing (once per scene) keeps objects that are large enough to hide
-//! something and cheap enough to rasterize, in their own BVH (seed 000, "Occluder-
-//! Datenbank"). Per pose, the in-frustum occluders are sorted by the distance of their
+//! something and cheap enough to rasterize, in their own BVH (the occluder
+//! database of the HOM paper). Per pose, the in-frustum occluders are sorted by the distance of their
 //! box centre from the eye and taken nearest first until a triangle budget is spent.
 //! Occluders are the objects' own triangles, never simplified, so an occluder can only
 //! ever cover pixels the object itself covers.
@@ -87,8 +87,7 @@ impl OccluderDb {
 
     /// [`OccluderDb::select`], but the occluders in `prefer` (ascending IDs: e.g. the
     /// objects visible from the previous pose of a walk) come first, nearest first,
-    /// then the others (DESIGN.md §4, temporal coherence: hidden occluders waste the
-    /// budget). Which objects are selected changes, never whether culling is
+    /// then the others (temporal coherence: hidden occluders waste the budget). Which objects are selected changes, never whether culling is
     /// conservative: any subset of the objects' own triangles is a valid occluder set.
     pub fn select_preferring(
         &self,

@@ -1,6 +1,6 @@
 //! Evaluation: every method against the exact oracle on the same poses.
 //!
-//! Counts are summed over poses (DESIGN.md §4): false culls are objects the oracle
+//! Counts are summed over poses: false culls are objects the oracle
 //! sees that a method culled; efficiency is the share of the oracle-hidden in-frustum
 //! objects a method culls; kept/oracle triangles is the over-draw. Timing is wall time
 //! per pose of whole batches (planning + GPU + readback), as p50/p95 over batches.

@@ -1,4 +1,4 @@
-//! Where HOM's efficiency is lost (DESIGN.md §4): of the in-frustum objects the exact
+//! Where HOM's efficiency is lost: of the in-frustum objects the exact
 //! oracle sees as hidden, which does HOM keep, and why.
 //!
 //! Every object the oracle hides but HOM keeps falls in one of two classes, decided by

@@ -1,4 +1,5 @@
-//! Depth estimation buffers built from occluder boxes (DESIGN.md §4, step 5).
+//! Depth estimation buffers built from occluder boxes: the depth half of HOM's test
+//! for the plane and tiles variants.
 //!
 //! - Plane (variant 1): one value, the farthest bbox-corner depth of all selected
 //!   occluders; everything behind it may be hidden.

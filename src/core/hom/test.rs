@@ -2,7 +2,7 @@
 //!
 //! WGSL twin: `gpu/shaders/test.wgsl` (same traversal, same comparisons).
 //!
-//! HOM (DESIGN.md §4, step 6): start at the level whose texels are at least as large as
+//! HOM: start at the level whose texels are at least as large as
 //! the rect (so it touches at most 2×2 of them); a texel passes if its opacity reaches
 //! that level's threshold and, for the raster DEB, its max occluder depth lies in front
 //! of the object; a texel that fails is refined one level down, only where it overlaps

@@ -2,7 +2,7 @@
 //!
 //! Images and textures are never read: a file whose images are missing or broken
 //! still loads. Objects are the mesh-bearing nodes of the default scene in depth-first
-//! order (DESIGN.md §3); vertices are transformed to world space at load, so every
+//! order (the ID convention in ARCHITECTURE.md); vertices are transformed to world space at load, so every
 //! later stage works in one space. Triangle strips and fans are converted to lists;
 //! points and lines are skipped with a counted warning.
 

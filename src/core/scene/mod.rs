@@ -4,7 +4,7 @@
 //! (`positions`, `indices`) in world space, so the GPU holds one vertex and one index
 //! buffer per scene and an object is a range of that index buffer.
 //!
-//! Object IDs are `u32` indices into `objects`, assigned at load (DESIGN.md §3) and
+//! Object IDs are `u32` indices into `objects`, assigned at load (see ARCHITECTURE.md) and
 //! stable for a given file.
 
 mod demo;
@@ -42,8 +42,8 @@ impl Object {
     }
 }
 
-/// A compact group of one object's triangles with its own bounds (DESIGN.md §4,
-/// "loose bounds" lever). An object is culled only if every group is.
+/// A compact group of one object's triangles with its own bounds ("loose bounds":
+/// a tighter test than the object's box). An object is culled only if every group is.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TestBox {
     pub object: u32,

@@ -1,5 +1,5 @@
 //! Sub-bounds: split an object's triangles into spatially compact groups, each with its
-//! own AABB (DESIGN.md §4, "loose bounds").
+//! own AABB ("loose bounds").
 //!
 //! An AABB test can only cull an object whose whole box is hidden; a building whose
 //! walls are one object, or a game map's vis-cluster, has a box far bigger than its

@@ -5,7 +5,8 @@ use std::fmt::Write as _;
 use anyhow::Result;
 use homcull_proto::CullOptions;
 
-use super::{Loaded, Report, progress};
+use super::context::{Report, progress};
+use super::scenes::Loaded;
 use crate::core::cull::{CullSettings, PreparedScene};
 use crate::core::occluders::OccluderParams;
 use crate::eval::loss::efficiency_loss;

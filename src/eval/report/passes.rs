@@ -6,7 +6,8 @@ use std::fmt::Write as _;
 use anyhow::Result;
 use homcull_proto::DebVariant;
 
-use super::{Loaded, Report, progress};
+use super::context::{Report, progress};
+use super::scenes::Loaded;
 use crate::core::cull::Pass;
 use crate::core::occluders::OccluderParams;
 use crate::eval::{MethodSpec, evaluate};

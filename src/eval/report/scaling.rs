@@ -7,9 +7,10 @@ use std::time::Instant;
 use anyhow::Result;
 use homcull_proto::{CullOptions, Method};
 
+use super::context::{Report, progress, spec};
 use super::plot::{Chart, Series, loglog_slope};
+use super::scenes::Loaded;
 use super::targets::Target;
-use super::{Loaded, Report, progress, spec};
 use crate::core::occluders::OccluderParams;
 use crate::core::scene::{demo_city, demo_city_sized};
 use crate::eval::{MethodSpec, evaluate};
@@ -58,7 +59,7 @@ pub(super) fn viewport(r: &mut Report) -> Result<()> {
          | viewport | pixels | hom-refine ms | hom-raster ms | hzb ms | exact ms | hom-refine efficiency | hom-raster efficiency |\n\
          |---|---:|---:|---:|---:|---:|---:|---:|",
         p.viewport_poses,
-        super::SEED,
+        super::context::SEED,
         p.batch.min(16),
         OccluderParams::default().budget_triangles
     );

@@ -5,9 +5,9 @@ use std::time::Duration;
 
 use anyhow::{Result, bail};
 
+use super::context::{Report, progress};
 use super::plot::{Chart, Series};
 use super::targets::Target;
-use super::{Report, progress};
 use crate::eval::loadgen::{LoadConfig, LoadReport};
 use crate::server::Config;
 
@@ -205,7 +205,7 @@ pub(super) fn section(r: &mut Report) -> Result<()> {
     )
 }
 
-/// Issue 4's targets from the load runs (`results`: batching on, then off).
+/// The server's targets from the load runs (`results`: batching on, then off).
 fn server_targets(r: &mut Report, results: &[(bool, Vec<LoadReport>)]) {
     let ws = |on: bool, clients: usize| {
         results
