@@ -54,5 +54,6 @@ pub fn scenes_dir() -> Option<PathBuf> {
     }
 }
 
+pub mod rest;
 pub mod server;
 pub mod ws;

@@ -105,6 +105,14 @@ impl TestServer {
     }
 }
 
+/// `GET url`; the answer's JSON body (panics on any failure).
+pub async fn get_json<T: serde::de::DeserializeOwned>(
+    http: &reqwest::Client,
+    url: impl reqwest::IntoUrl,
+) -> T {
+    http.get(url).send().await.unwrap().json().await.unwrap()
+}
+
 /// `POST url` with a JSON body; the answer's JSON body (panics on any failure).
 pub async fn post_json<T: serde::de::DeserializeOwned>(
     http: &reqwest::Client,

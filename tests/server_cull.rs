@@ -1,0 +1,124 @@
+//! `POST …/cull`, `…/cull/batch`, `…/pyramid` and `…/occluders` on the demo city: single
+//! and batch culls agree in pose order, HOM keeps a subset of the frustum's set, the
+//! pyramid has one PNG per level, the occluders fit the budget.
+
+mod common;
+
+use common::rest::pose_json;
+use common::server::{TestServer, get_json, post_json, street_walk};
+use homcull_proto::{BatchResponse, CullResponse, SceneInfo};
+use serde_json::{Value, json};
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn culls_pyramid_and_occluders() {
+    let srv = TestServer::start(|_| {}).await;
+    let http = reqwest::Client::new();
+    let info: SceneInfo = get_json(&http, srv.url("/v1/scenes/demo")).await;
+
+    // Single and batch culls agree, in pose order.
+    let poses = street_walk(6, [320, 180]);
+    let mut singles = Vec::new();
+    for p in &poses {
+        let r = http
+            .post(srv.url("/v1/scenes/demo/cull"))
+            .json(&json!({"pose": pose_json(p)}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200);
+        let r: CullResponse = r.json().await.unwrap();
+        assert!(r.visible.windows(2).all(|w| w[0] < w[1]), "ascending");
+        let s = &r.stats;
+        assert_eq!(s.objects, info.objects);
+        assert_eq!(s.candidates + s.culled_by_frustum, s.objects);
+        assert_eq!(r.visible.len() as u32 + s.culled_by_occlusion, s.candidates);
+        singles.push(r.visible);
+    }
+    let batch: BatchResponse = http
+        .post(srv.url("/v1/scenes/demo/cull/batch"))
+        .json(&json!({"poses": poses.iter().map(pose_json).collect::<Vec<_>>(), "options": {"method": "hom"}}))
+        .send().await.unwrap().json().await.unwrap();
+    let batched: Vec<Vec<u32>> = batch.results.into_iter().map(|r| r.visible).collect();
+    assert_eq!(batched, singles);
+    let frustum: CullResponse = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/cull"),
+        &json!({"pose": pose_json(&poses[0]), "options": {"method": "frustum"}}),
+    )
+    .await;
+    assert!(
+        singles[0].iter().all(|i| frustum.visible.contains(i)),
+        "hom ⊆ frustum"
+    );
+    assert!(
+        frustum.visible.len() > singles[0].len(),
+        "a street-level pose hides something"
+    );
+
+    // The pyramid debug view: one PNG per level, level 0 at the viewport size.
+    let pyr: Value = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/pyramid"),
+        &json!({"pose": pose_json(&poses[0])}),
+    )
+    .await;
+    let levels = pyr["levels"].as_array().expect("levels");
+    assert_eq!(
+        levels.len(),
+        homcull::core::hom::pyramid::LevelLayout::new(320, 180).levels()
+    );
+    assert_eq!(
+        (levels[0]["width"].as_u64(), levels[0]["height"].as_u64()),
+        (Some(320), Some(180))
+    );
+    let last = levels.last().unwrap();
+    assert_eq!(
+        (last["width"].as_u64(), last["height"].as_u64()),
+        (Some(1), Some(1))
+    );
+    for l in levels {
+        let url = l["png"].as_str().unwrap();
+        let b64 = url
+            .strip_prefix("data:image/png;base64,")
+            .expect("a PNG data URL");
+        use base64::Engine as _;
+        let bytes = base64::engine::general_purpose::STANDARD
+            .decode(b64)
+            .unwrap();
+        assert_eq!(&bytes[1..4], b"PNG");
+    }
+
+    // The occluders of a pose: distinct qualifying occluders within the budget, all in
+    // the frustum (so among the frustum method's visible set).
+    let occ: Value = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/occluders"),
+        &json!({"pose": pose_json(&poses[0])}),
+    )
+    .await;
+    let ids: Vec<u32> = serde_json::from_value(occ["occluders"].clone()).expect("occluder ids");
+    assert!(!ids.is_empty(), "a street pose renders occluders");
+    assert!(ids.iter().all(|i| frustum.visible.contains(i)));
+    let distinct: std::collections::BTreeSet<_> = ids.iter().collect();
+    assert_eq!(distinct.len(), ids.len());
+    assert!(occ["triangles"].as_u64().unwrap() <= occ["budget"].as_u64().unwrap());
+    let status = http
+        .post(srv.url("/v1/scenes/nope/occluders"))
+        .json(&json!({"pose": pose_json(&poses[0])}))
+        .send()
+        .await
+        .unwrap()
+        .status();
+    assert_eq!(status, 404);
+    let status = http
+        .post(srv.url("/v1/scenes/demo/occluders"))
+        .header("content-type", "application/json")
+        .body(r#"{"pose": {"position": [0, 1, 0], "viewport": [0, 0]}}"#)
+        .send()
+        .await
+        .unwrap()
+        .status();
+    assert_eq!(status, 400);
+
+    srv.stop().await;
+}
