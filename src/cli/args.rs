@@ -206,6 +206,13 @@ pub struct ServeArgs {
         value_name = "FILE"
     )]
     pub scenes: Vec<std::path::PathBuf>,
+    /// Most triangles one scene may hold (every instance counted); larger files are
+    /// refused before decoding.
+    #[arg(long, env = "HOMCULL_MAX_SCENE_TRIANGLES", default_value_t = Config::default().max_scene_triangles)]
+    pub max_scene_triangles: u64,
+    /// Most bytes one scene's decoded geometry may take.
+    #[arg(long, env = "HOMCULL_MAX_DECODED_BYTES", default_value_t = Config::default().max_decoded_bytes)]
+    pub max_decoded_bytes: u64,
 }
 
 impl Default for ServeArgs {
@@ -242,6 +249,8 @@ impl ServeArgs {
             budget: self.budget,
             no_demo: self.no_demo,
             scenes: self.scenes.clone(),
+            max_scene_triangles: self.max_scene_triangles,
+            max_decoded_bytes: self.max_decoded_bytes,
         }
     }
 }

@@ -37,7 +37,7 @@ pub enum PoseError {
     Viewport { w: u32, h: u32 },
     #[error("near must be > 0 and far > near (with far/near ≤ 1e7), got near {near}, far {far}")]
     Planes { near: f32, far: f32 },
-    #[error("rotation must be a non-zero quaternion")]
+    #[error("rotation must be a non-zero quaternion of finite length")]
     Rotation,
     #[error("give either rotation or look_at, not both")]
     BothOrientations,
@@ -98,7 +98,9 @@ impl Camera {
             (Some(q), None) => {
                 finite("rotation", &q)?;
                 let q = Quat::from_array(q);
-                if q.length().is_nan() || q.length() <= 1e-6 {
+                // Huge finite components overflow the length to infinity, which would
+                // normalize to NaNs: such a quaternion is refused like a zero one.
+                if !q.length().is_finite() || q.length() <= 1e-6 {
                     return Err(PoseError::Rotation);
                 }
                 Mat4::from_rotation_translation(q.normalize(), eye).inverse()
@@ -428,6 +430,8 @@ mod tests {
         assert_eq!(Camera::new(&p), Err(PoseError::BothOrientations));
         p.look_at = None;
         p.rotation = Some([0.0; 4]);
+        assert_eq!(Camera::new(&p), Err(PoseError::Rotation));
+        p.rotation = Some([1e30, 1e30, 0.0, 1e30]);
         assert_eq!(Camera::new(&p), Err(PoseError::Rotation));
         p.rotation = None;
         p.look_at = Some([0.0, 5.0, 0.0]);

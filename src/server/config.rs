@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 use crate::core::occluders::OccluderParams;
+use crate::core::scene::LoadLimits;
 
 /// How a server runs.
 #[derive(Debug, Clone)]
@@ -45,6 +46,23 @@ pub struct Config {
     pub no_demo: bool,
     /// glTF/GLB files served read-only under their file name without extension.
     pub scenes: Vec<PathBuf>,
+    /// Most triangles one scene may hold, counted over every instance; larger uploads
+    /// are refused before anything is decoded.
+    pub max_scene_triangles: u64,
+    /// Most bytes one scene's decoded geometry may take (12 per vertex and per
+    /// triangle, per instance).
+    pub max_decoded_bytes: u64,
+}
+
+impl Config {
+    /// What loading one scene may take (uploads, stored scenes, `--scene` files).
+    pub fn load_limits(&self) -> LoadLimits {
+        LoadLimits {
+            max_triangles: self.max_scene_triangles,
+            max_decoded_bytes: self.max_decoded_bytes,
+            ..LoadLimits::default()
+        }
+    }
 }
 
 impl Default for Config {
@@ -68,6 +86,8 @@ impl Default for Config {
             budget: OccluderParams::default().budget_triangles,
             no_demo: false,
             scenes: Vec::new(),
+            max_scene_triangles: LoadLimits::default().max_triangles,
+            max_decoded_bytes: LoadLimits::default().max_decoded_bytes,
         }
     }
 }

@@ -17,6 +17,7 @@
 pub mod alloc;
 pub mod config;
 pub mod error;
+pub mod guard;
 pub mod metrics;
 pub mod motion;
 pub mod routes;
@@ -35,6 +36,7 @@ use std::time::Duration;
 
 use axum::Router;
 use axum::extract::DefaultBodyLimit;
+use axum::middleware::{from_fn, from_fn_with_state};
 use axum::routing::{get, post};
 use tokio::net::TcpListener;
 use tokio::sync::watch;
@@ -106,26 +108,46 @@ pub fn app(state: AppState) -> Router {
             "/v1/scenes",
             get(routes::list_scenes)
                 .post(routes::upload_scene)
-                .layer(DefaultBodyLimit::max(cfg.max_upload_bytes)),
+                .layer(DefaultBodyLimit::max(cfg.max_upload_bytes))
+                .route_layer(from_fn_with_state(
+                    state.clone(),
+                    guard::require_token_on_writes,
+                )),
         )
         .route(
             "/v1/scenes/{id}",
-            get(routes::get_scene).delete(routes::delete_scene),
+            get(routes::get_scene)
+                .delete(routes::delete_scene)
+                .route_layer(from_fn_with_state(
+                    state.clone(),
+                    guard::require_token_on_writes,
+                )),
         )
         .route("/v1/scenes/{id}/objects", get(routes::list_objects))
         .route("/v1/scenes/{id}/glb", get(routes::get_glb))
-        .route("/v1/scenes/{id}/cull", post(routes::cull).layer(json_limit))
+        .route(
+            "/v1/scenes/{id}/cull",
+            post(routes::cull)
+                .layer(json_limit)
+                .route_layer(from_fn(guard::require_json)),
+        )
         .route(
             "/v1/scenes/{id}/cull/batch",
-            post(routes::cull_batch).layer(json_limit),
+            post(routes::cull_batch)
+                .layer(json_limit)
+                .route_layer(from_fn(guard::require_json)),
         )
         .route(
             "/v1/scenes/{id}/occluders",
-            post(routes::occluders).layer(json_limit),
+            post(routes::occluders)
+                .layer(json_limit)
+                .route_layer(from_fn(guard::require_json)),
         )
         .route(
             "/v1/scenes/{id}/pyramid",
-            post(routes::pyramid).layer(json_limit),
+            post(routes::pyramid)
+                .layer(json_limit)
+                .route_layer(from_fn(guard::require_json)),
         )
         .route("/v1/scenes/{id}/stream", get(ws::stream))
         .layer(TimeoutLayer::with_status_code(
@@ -165,7 +187,8 @@ pub async fn serve(
 fn start(config: Config, backend: Backend) -> std::io::Result<(AppState, watch::Sender<bool>)> {
     alloc::tune_allocator();
     let store = Store::open(&config.data_dir)?;
-    let files = scene_files::load_all(&config.scenes).map_err(std::io::Error::other)?;
+    let files = scene_files::load_all(&config.scenes, &config.load_limits())
+        .map_err(std::io::Error::other)?;
     let (shutdown_tx, shutdown) = watch::channel(false);
     let worker = worker::spawn(config.queue, config.gpu_batch, !config.no_batching);
     let adapter = backend.describe();

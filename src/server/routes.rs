@@ -8,7 +8,7 @@ use axum::Json;
 use axum::body::Bytes;
 use axum::extract::rejection::{BytesRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
-use axum::http::{HeaderMap, StatusCode, header};
+use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use homcull_proto::{
     BatchRequest, BatchResponse, CullRequest, CullResponse, ObjectList, SceneInfo, SceneList,
@@ -19,7 +19,7 @@ use super::error::ApiError;
 use super::state::{AppState, GlbSource, SceneEntry};
 use crate::core::camera::Camera;
 use crate::core::cull::PoseResult;
-use crate::core::scene::load_glb_bytes;
+use crate::core::scene::load_glb_bytes_within;
 
 /// Liveness: the process answers.
 #[utoipa::path(get, path = "/healthz", responses((status = 200, description = "alive")))]
@@ -72,33 +72,6 @@ pub struct UploadQuery {
     pub name: Option<String>,
 }
 
-fn check_token(state: &AppState, headers: &HeaderMap) -> Result<(), ApiError> {
-    let Some(token) = &state.config.api_token else {
-        return Ok(());
-    };
-    let given = headers
-        .get(header::AUTHORIZATION)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.strip_prefix("Bearer "));
-    // Compare without an early exit so timing does not reveal the token's prefix.
-    let ok = given.is_some_and(|g| {
-        g.len() == token.len()
-            && g.bytes()
-                .zip(token.bytes())
-                .fold(0, |a, (x, y)| a | (x ^ y))
-                == 0
-    });
-    if ok {
-        Ok(())
-    } else {
-        Err(ApiError::new(
-            StatusCode::UNAUTHORIZED,
-            "unauthorized",
-            "this server needs `Authorization: Bearer TOKEN` for uploads and deletes",
-        ))
-    }
-}
-
 fn body_error(e: BytesRejection) -> ApiError {
     if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
         ApiError::new(
@@ -118,11 +91,9 @@ fn body_error(e: BytesRejection) -> ApiError {
         (status = 401, body = homcull_proto::ErrorBody), (status = 413, body = homcull_proto::ErrorBody)))]
 pub async fn upload_scene(
     State(state): State<AppState>,
-    headers: HeaderMap,
     query: Result<Query<UploadQuery>, QueryRejection>,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<(StatusCode, Json<SceneInfo>), ApiError> {
-    check_token(&state, &headers)?;
     let Query(q) = query.map_err(|e| ApiError::bad_request("bad_query", e.body_text()))?;
     let body = body.map_err(body_error)?;
     let name = q.name.unwrap_or_else(|| "upload".into());
@@ -139,8 +110,9 @@ pub async fn upload_scene(
         ));
     }
     let st = state.clone();
+    let limits = state.config.load_limits();
     let entry = tokio::task::spawn_blocking(move || -> Result<Arc<SceneEntry>, ApiError> {
-        let scene = load_glb_bytes(&body, &name)
+        let scene = load_glb_bytes_within(&body, &name, &limits)
             .map_err(|e| ApiError::bad_request("invalid_glb", format!("not a usable GLB: {e}")))?;
         if scene.objects.is_empty() {
             return Err(ApiError::bad_request(
@@ -201,10 +173,8 @@ pub async fn get_glb(
         (status = 404, body = homcull_proto::ErrorBody), (status = 409, body = homcull_proto::ErrorBody)))]
 pub async fn delete_scene(
     State(state): State<AppState>,
-    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<StatusCode, ApiError> {
-    check_token(&state, &headers)?;
     if state.scene(&id)?.read_only {
         return Err(ApiError::new(
             StatusCode::CONFLICT,

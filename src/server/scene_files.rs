@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 
 use super::store::valid_id;
-use crate::core::scene::{Scene, load_path, write_glb};
+use crate::core::scene::{LoadLimits, Scene, load_path_within, write_glb};
 
 /// Longest id derived from a file name.
 const MAX_ID_LEN: usize = 64;
@@ -33,7 +33,7 @@ pub enum Glb {
 }
 
 /// Parses every file, or says which one cannot be served and why.
-pub fn load_all(paths: &[PathBuf]) -> Result<Vec<SceneFile>, String> {
+pub fn load_all(paths: &[PathBuf], limits: &LoadLimits) -> Result<Vec<SceneFile>, String> {
     let mut files: Vec<SceneFile> = Vec::with_capacity(paths.len());
     for path in paths {
         let id = id_of(path)?;
@@ -47,7 +47,8 @@ pub fn load_all(paths: &[PathBuf]) -> Result<Vec<SceneFile>, String> {
         let bytes = std::fs::metadata(path)
             .map_err(|e| format!("--scene {}: {e}", path.display()))?
             .len();
-        let scene = load_path(path).map_err(|e| format!("--scene {}: {e}", path.display()))?;
+        let scene = load_path_within(path, limits)
+            .map_err(|e| format!("--scene {}: {e}", path.display()))?;
         let glb = if is_glb(path) {
             Glb::File { bytes }
         } else {
@@ -120,12 +121,12 @@ mod tests {
     fn bad_files_are_named() {
         let dir = tempfile::tempdir().unwrap();
         let missing = dir.path().join("gone.glb");
-        let err = load_all(&[missing]).err().unwrap();
+        let err = load_all(&[missing], &LoadLimits::default()).err().unwrap();
         assert!(err.contains("gone.glb"), "{err}");
 
         let broken = dir.path().join("broken.glb");
         std::fs::write(&broken, b"not a glb").unwrap();
-        let err = load_all(&[broken]).err().unwrap();
+        let err = load_all(&[broken], &LoadLimits::default()).err().unwrap();
         assert!(err.contains("broken.glb"), "{err}");
 
         let glb = crate::core::scene::write_glb(&crate::core::scene::demo_city_sized(2));
@@ -134,10 +135,10 @@ mod tests {
             std::fs::create_dir_all(p.parent().unwrap()).unwrap();
             std::fs::write(p, &glb).unwrap();
         }
-        let one = load_all(std::slice::from_ref(&a)).unwrap();
+        let one = load_all(std::slice::from_ref(&a), &LoadLimits::default()).unwrap();
         assert_eq!(one[0].id, "city");
         assert!(matches!(one[0].glb, Glb::File { bytes } if bytes == glb.len() as u64));
-        let err = load_all(&[a, b]).err().unwrap();
+        let err = load_all(&[a, b], &LoadLimits::default()).err().unwrap();
         assert!(err.contains("both be served as `city`"), "{err}");
     }
 
@@ -159,7 +160,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("tri.gltf");
         std::fs::write(&path, TRIANGLE_GLTF).unwrap();
-        let files = load_all(&[path]).unwrap();
+        let files = load_all(&[path], &LoadLimits::default()).unwrap();
         assert_eq!(
             (files[0].id.as_str(), files[0].scene.objects.len()),
             ("tri", 1)

@@ -9,7 +9,7 @@ use super::alloc::release_free_heap;
 use super::scene_files::{Glb, SceneFile};
 use super::state::{AppState, GlbSource, Origin, SceneEntry};
 use super::store::SceneMeta;
-use crate::core::scene::{Scene, demo_city, load_glb_bytes, write_glb};
+use crate::core::scene::{Scene, demo_city, load_glb_bytes_within, write_glb};
 
 impl AppState {
     /// Builds the demo city (blocking: call from a blocking thread).
@@ -66,14 +66,34 @@ impl AppState {
         self.insert(entry);
     }
 
-    /// Loads a stored scene by id (blocking), caching its occluders if needed.
+    /// Loads a stored scene by id (blocking), caching its occluders if needed. A scene
+    /// whose files are readable but unusable (its GLB refused, its `meta.json` broken or
+    /// naming another id) is moved to the data dir's quarantine, so that no later start
+    /// or replica tries it again.
     pub fn load_stored(&self, id: &str) -> Result<Arc<SceneEntry>, String> {
-        let (meta, glb) = self
-            .store
-            .read(id)
-            .map_err(|e| format!("reading scene {id}: {e}"))?;
-        let scene = load_glb_bytes(&glb, &meta.name).map_err(|e| format!("scene {id}: {e}"))?;
-        Ok(self.prepare(&meta, scene, glb.len() as u64))
+        let (meta, glb) = match self.store.read(id) {
+            Ok(read) => read,
+            Err(e) if e.kind() == std::io::ErrorKind::InvalidData => {
+                return Err(self.quarantine(id, &format!("meta.json: {e}")));
+            }
+            Err(e) => return Err(format!("reading scene {id}: {e}")),
+        };
+        if meta.id != id {
+            let why = format!("meta.json names id `{}`, not its folder's", meta.id);
+            return Err(self.quarantine(id, &why));
+        }
+        match load_glb_bytes_within(&glb, &meta.name, &self.config.load_limits()) {
+            Ok(scene) => Ok(self.prepare(&meta, scene, glb.len() as u64)),
+            Err(e) => Err(self.quarantine(id, &e.to_string())),
+        }
+    }
+
+    /// Moves a stored scene out of the way (see [`AppState::load_stored`]) and says why.
+    fn quarantine(&self, id: &str, why: &str) -> String {
+        match self.store.quarantine(id) {
+            Ok(to) => format!("scene {id}: {why}; moved to {}", to.display()),
+            Err(e) => format!("scene {id}: {why}; could not quarantine it: {e}"),
+        }
     }
 
     /// Stores a new upload (already parsed as `scene`) and makes it resident (blocking).

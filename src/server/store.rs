@@ -6,8 +6,13 @@
 //! scenes/<id>/scene.glb        the upload, byte for byte (also what /glb serves)
 //! scenes/<id>/meta.json        {"id", "name", "created_unix"}
 //! scenes/<id>/occluders.json   preprocessed occluder database (a cache; rebuilt if absent or stale)
-//! tmp/                         uploads and deletes in progress
+//! tmp/<instance>.live/         this process's uploads and deletes in progress
+//! quarantine/<id>.<unix time>/ stored scenes that failed to load, moved out of the way
 //! ```
+//! Each running server holds an exclusive lock on `tmp/<instance>.live/lock`; at start a
+//! server removes every temp folder whose lock it can take (its owner is gone: a crash
+//! leaves nothing behind past the next start), whatever its age, and leaves the folders
+//! of live replicas alone.
 //! A scene appears by renaming a complete, fsynced directory from `tmp/` into
 //! `scenes/` (one atomic rename), and disappears by renaming it back out before
 //! removing it. Readers therefore see a scene whole or not at all, and replicas that
@@ -51,10 +56,14 @@ impl OccluderCache {
 #[derive(Debug, Clone)]
 pub struct Store {
     root: PathBuf,
+    /// `tmp/<instance>.live`: where this process writes before renaming.
+    work: PathBuf,
+    /// The lock on `work/lock`, held while the process lives.
+    _lock: std::sync::Arc<std::fs::File>,
 }
 
-/// Temp entries older than this are leftovers of a crash (another replica's upload in
-/// progress is younger) and are removed at startup.
+/// Temp entries of the layout before per-instance folders, older than this, are
+/// leftovers of a crash and are removed at startup.
 const STALE_TMP: Duration = Duration::from_secs(3600);
 
 /// Scene ids are 16 lowercase hex digits (or `demo`); anything else is not ours.
@@ -66,27 +75,54 @@ pub fn valid_id(id: &str) -> bool {
 }
 
 impl Store {
-    /// Opens (creating if needed) a data directory and clears stale temp entries.
+    /// Opens (creating if needed) a data directory, takes this process's temp folder
+    /// and removes the temp folders of processes that are gone.
     pub fn open(root: &Path) -> std::io::Result<Store> {
-        let store = Store {
-            root: root.to_path_buf(),
-        };
-        std::fs::create_dir_all(store.scenes_dir())?;
-        std::fs::create_dir_all(store.tmp_dir())?;
-        for e in std::fs::read_dir(store.tmp_dir())?.flatten() {
-            let old = e
-                .metadata()
-                .and_then(|m| m.modified())
-                .ok()
-                .and_then(|t| SystemTime::now().duration_since(t).ok())
-                .is_some_and(|age| age > STALE_TMP);
-            if old {
-                tracing::info!(path = %e.path().display(), "removing a stale temp entry");
-                let _ =
-                    std::fs::remove_dir_all(e.path()).or_else(|_| std::fs::remove_file(e.path()));
+        let scenes = root.join("scenes");
+        let tmp = root.join("tmp");
+        std::fs::create_dir_all(&scenes)?;
+        std::fs::create_dir_all(&tmp)?;
+        let work = tmp.join(format!("{:016x}.live", rand::random::<u64>()));
+        std::fs::create_dir_all(&work)?;
+        let lock = std::fs::File::create(work.join("lock"))?;
+        if !try_lock(&lock) {
+            return Err(std::io::Error::other("cannot lock a fresh temp folder"));
+        }
+        for e in std::fs::read_dir(&tmp)?.flatten() {
+            let path = e.path();
+            if path == work {
+                continue;
+            }
+            let abandoned = if path.extension().is_some_and(|x| x == "live") {
+                // Its owner holds the lock while it lives; taking it proves it is gone.
+                std::fs::File::open(path.join("lock")).map_or(true, |f| try_lock(&f))
+            } else {
+                e.metadata()
+                    .and_then(|m| m.modified())
+                    .ok()
+                    .and_then(|t| SystemTime::now().duration_since(t).ok())
+                    .is_some_and(|age| age > STALE_TMP)
+            };
+            if abandoned {
+                tracing::info!(path = %path.display(), "removing a temp entry no live server owns");
+                let _ = std::fs::remove_dir_all(&path).or_else(|_| std::fs::remove_file(&path));
             }
         }
-        Ok(store)
+        Ok(Store {
+            root: root.to_path_buf(),
+            work,
+            _lock: std::sync::Arc::new(lock),
+        })
+    }
+
+    /// Moves a stored scene to `quarantine/<id>.<unix time>` and returns where.
+    pub fn quarantine(&self, id: &str) -> std::io::Result<PathBuf> {
+        let dir = self.root.join("quarantine");
+        std::fs::create_dir_all(&dir)?;
+        let to = dir.join(format!("{id}.{}", unix_now()));
+        std::fs::rename(self.scene_dir(id), &to)?;
+        sync_dir(&self.scenes_dir())?;
+        Ok(to)
     }
 
     pub fn root(&self) -> &Path {
@@ -97,8 +133,8 @@ impl Store {
         self.root.join("scenes")
     }
 
-    fn tmp_dir(&self) -> PathBuf {
-        self.root.join("tmp")
+    fn tmp_dir(&self) -> &Path {
+        &self.work
     }
 
     pub fn scene_dir(&self, id: &str) -> PathBuf {
@@ -124,7 +160,7 @@ impl Store {
     pub fn read(&self, id: &str) -> std::io::Result<(SceneMeta, Vec<u8>)> {
         let dir = self.scene_dir(id);
         let meta: SceneMeta = serde_json::from_slice(&std::fs::read(dir.join("meta.json"))?)
-            .map_err(std::io::Error::other)?;
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))?;
         let glb = std::fs::read(dir.join("scene.glb"))?;
         Ok((meta, glb))
     }
@@ -135,9 +171,7 @@ impl Store {
         let meta = SceneMeta {
             id: id.clone(),
             name: name.to_string(),
-            created_unix: SystemTime::now()
-                .duration_since(SystemTime::UNIX_EPOCH)
-                .map_or(0, |d| d.as_secs()),
+            created_unix: unix_now(),
         };
         let tmp = self.tmp_dir().join(format!("{id}.upload"));
         std::fs::create_dir_all(&tmp)?;
@@ -189,6 +223,20 @@ impl Store {
     }
 }
 
+fn unix_now() -> u64 {
+    SystemTime::now()
+        .duration_since(SystemTime::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+/// Takes an exclusive advisory lock on `file` without waiting; false if another
+/// process holds it. Released when the file is closed, or when the process dies.
+fn try_lock(file: &std::fs::File) -> bool {
+    use std::os::fd::AsRawFd;
+    // SAFETY: flock only reads the descriptor, which `file` keeps open for the call.
+    unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) == 0 }
+}
+
 fn write_synced(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let mut f = std::fs::File::create(path)?;
     f.write_all(bytes)?;
@@ -221,11 +269,41 @@ mod tests {
         store.write_occluders(&meta.id, &cache).unwrap();
         assert_eq!(store.read_occluders(&meta.id), Some(cache));
         // A half-written upload in tmp/ is not a scene.
-        std::fs::create_dir_all(dir.path().join("tmp/0123456789abcdef.upload")).unwrap();
+        std::fs::create_dir_all(store.tmp_dir().join("0123456789abcdef.upload")).unwrap();
         assert_eq!(store.list().unwrap().len(), 1);
         store.delete(&meta.id).unwrap();
         assert!(store.list().unwrap().is_empty());
-        assert!(std::fs::read_dir(dir.path().join("tmp")).unwrap().count() == 1);
+        assert_eq!(
+            std::fs::read_dir(store.tmp_dir()).unwrap().count(),
+            2,
+            "lock + upload"
+        );
+        let to = store
+            .quarantine(&store.create("b", b"x").unwrap().id)
+            .unwrap();
+        assert!(to.join("scene.glb").is_file() && store.list().unwrap().is_empty());
+    }
+
+    #[test]
+    fn temp_folders_of_gone_servers_are_removed_at_start_and_live_ones_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let live = Store::open(dir.path()).unwrap();
+        std::fs::write(live.tmp_dir().join("half.glb"), b"in progress").unwrap();
+        // A crashed server's folder: its lock file exists but nobody holds it.
+        let dead = dir.path().join("tmp/00000000000000aa.live");
+        std::fs::create_dir_all(dead.join("x.upload")).unwrap();
+        std::fs::write(dead.join("lock"), b"").unwrap();
+        let second = Store::open(dir.path()).unwrap();
+        assert!(
+            !dead.exists(),
+            "a dead server's temp folder goes, however young"
+        );
+        assert!(live.tmp_dir().join("half.glb").exists(), "a live one stays");
+        drop(live);
+        let third = Store::open(dir.path()).unwrap();
+        let left: Vec<_> = std::fs::read_dir(dir.path().join("tmp")).unwrap().collect();
+        assert_eq!(left.len(), 2, "the second's and the third's: {left:?}");
+        drop((second, third));
     }
 
     #[test]

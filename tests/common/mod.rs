@@ -54,6 +54,7 @@ pub fn scenes_dir() -> Option<PathBuf> {
     }
 }
 
+pub mod hostile;
 pub mod rest;
 pub mod server;
 pub mod ws;

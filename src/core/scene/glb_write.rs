@@ -66,7 +66,13 @@ pub fn write_glb(scene: &Scene) -> Vec<u8> {
         "bufferViews": views,
         "buffers": [{"byteLength": bin.len()}],
     });
-    let mut json_bytes = serde_json::to_vec(&doc).expect("JSON of plain values");
+    glb_container(&doc, bin)
+}
+
+/// A GLB file around a glTF JSON document and its binary chunk (both padded to 4
+/// bytes as the format asks). `write_glb` uses it, and so do tests that craft files.
+pub fn glb_container(doc: &serde_json::Value, mut bin: Vec<u8>) -> Vec<u8> {
+    let mut json_bytes = serde_json::to_vec(doc).expect("JSON of plain values");
     while !json_bytes.len().is_multiple_of(4) {
         json_bytes.push(b' ');
     }

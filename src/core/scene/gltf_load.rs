@@ -5,6 +5,10 @@
 //! order (the ID convention in ARCHITECTURE.md); vertices are transformed to world space at load, so every
 //! later stage works in one space. Triangle strips and fans are converted to lists;
 //! points and lines are skipped with a counted warning.
+//!
+//! Nothing is decoded before [`super::limits::check`] has bounded what the file asks
+//! for (cycles, nesting, instancing, accessor sizes, triangle and byte totals); a scene
+//! with no triangles at all is refused.
 
 use std::path::Path;
 
@@ -12,6 +16,7 @@ use base64::Engine;
 use glam::{Mat4, Vec3};
 use gltf::mesh::Mode;
 
+use super::limits::{LoadLimits, check};
 use super::{Scene, SceneBuilder};
 
 /// Why a scene file could not be loaded.
@@ -28,6 +33,10 @@ pub enum LoadError {
     Buffer { index: usize, reason: String },
     #[error("the file has no scene with mesh nodes")]
     NoObjects,
+    #[error("the file's meshes hold no triangles")]
+    NoTriangles,
+    #[error("refused before decoding: {0}")]
+    OverLimit(String),
     #[error("mesh {mesh} primitive {primitive}: {reason}")]
     Primitive {
         mesh: usize,
@@ -36,8 +45,14 @@ pub enum LoadError {
     },
 }
 
-/// Loads a `.glb` or `.gltf` file; external buffers are resolved next to it.
+/// Loads a `.glb` or `.gltf` file within the default [`LoadLimits`]; external buffers
+/// are resolved next to it.
 pub fn load_path(path: &Path) -> Result<Scene, LoadError> {
+    load_path_within(path, &LoadLimits::default())
+}
+
+/// [`load_path`] within `limits`.
+pub fn load_path_within(path: &Path, limits: &LoadLimits) -> Result<Scene, LoadError> {
     let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
         path: path.display().to_string(),
         source,
@@ -46,16 +61,32 @@ pub fn load_path(path: &Path) -> Result<Scene, LoadError> {
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scene".into());
-    load(&bytes, &name, path.parent())
+    load(&bytes, &name, path.parent(), limits)
 }
 
-/// Loads a self-contained GLB (or glTF with data URIs) from memory.
+/// Loads a self-contained GLB (or glTF with data URIs) from memory within the default
+/// [`LoadLimits`].
 pub fn load_glb_bytes(bytes: &[u8], name: &str) -> Result<Scene, LoadError> {
-    load(bytes, name, None)
+    load_glb_bytes_within(bytes, name, &LoadLimits::default())
 }
 
-fn load(bytes: &[u8], name: &str, base: Option<&Path>) -> Result<Scene, LoadError> {
+/// [`load_glb_bytes`] within `limits`.
+pub fn load_glb_bytes_within(
+    bytes: &[u8],
+    name: &str,
+    limits: &LoadLimits,
+) -> Result<Scene, LoadError> {
+    load(bytes, name, None, limits)
+}
+
+fn load(
+    bytes: &[u8],
+    name: &str,
+    base: Option<&Path>,
+    limits: &LoadLimits,
+) -> Result<Scene, LoadError> {
     let gltf = gltf::Gltf::from_slice(bytes)?;
+    check(&gltf, limits).map_err(LoadError::OverLimit)?;
     let buffers = read_buffers(&gltf, base)?;
     let scene = gltf
         .default_scene()
@@ -91,6 +122,9 @@ fn load(bytes: &[u8], name: &str, base: Option<&Path>) -> Result<Scene, LoadErro
         return Err(LoadError::NoObjects);
     }
     let mut out = builder.build(name);
+    if out.triangle_count() == 0 {
+        return Err(LoadError::NoTriangles);
+    }
     out.extras = scene
         .extras()
         .as_ref()

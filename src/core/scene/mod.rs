@@ -10,12 +10,16 @@
 mod demo;
 mod glb_write;
 mod gltf_load;
+pub mod limits;
 mod subbounds;
 
 pub use demo::demo_city;
 pub use demo::demo_city_sized;
-pub use glb_write::write_glb;
-pub use gltf_load::{LoadError, load_glb_bytes, load_path};
+pub use glb_write::{glb_container, write_glb};
+pub use gltf_load::{
+    LoadError, load_glb_bytes, load_glb_bytes_within, load_path, load_path_within,
+};
+pub use limits::LoadLimits;
 pub use subbounds::{SubBoundsParams, split_into_groups};
 
 use glam::Vec3;
