@@ -183,6 +183,9 @@ pub struct ServeArgs {
     /// Seconds a WebSocket send may block before the client is dropped.
     #[arg(long, env = "HOMCULL_WS_SEND_TIMEOUT_S", default_value_t = Config::default().ws_send_timeout_s)]
     pub ws_send_timeout_s: u64,
+    /// Seconds a WebSocket client may send nothing before it is closed (1008).
+    #[arg(long, env = "HOMCULL_WS_IDLE_TIMEOUT_S", default_value_t = Config::default().ws_idle_timeout_s)]
+    pub ws_idle_timeout_s: u64,
     /// Seconds to finish in-flight work after SIGTERM/SIGINT.
     #[arg(long, env = "HOMCULL_SHUTDOWN_GRACE_S", default_value_t = Config::default().shutdown_grace_s)]
     pub shutdown_grace_s: u64,
@@ -210,6 +213,9 @@ pub struct ServeArgs {
     /// refused before decoding.
     #[arg(long, env = "HOMCULL_MAX_SCENE_TRIANGLES", default_value_t = Config::default().max_scene_triangles)]
     pub max_scene_triangles: u64,
+    /// Most pixels one cull request may render, summed over its poses.
+    #[arg(long, env = "HOMCULL_MAX_REQUEST_PIXELS", default_value_t = Config::default().max_request_pixels)]
+    pub max_request_pixels: u64,
     /// Most bytes one scene's decoded geometry may take.
     #[arg(long, env = "HOMCULL_MAX_DECODED_BYTES", default_value_t = Config::default().max_decoded_bytes)]
     pub max_decoded_bytes: u64,
@@ -244,11 +250,13 @@ impl ServeArgs {
             no_batching: self.no_batching,
             request_timeout_s: self.request_timeout_s,
             ws_send_timeout_s: self.ws_send_timeout_s,
+            ws_idle_timeout_s: self.ws_idle_timeout_s,
             shutdown_grace_s: self.shutdown_grace_s,
             rescan_s: self.rescan_s,
             budget: self.budget,
             no_demo: self.no_demo,
             scenes: self.scenes.clone(),
+            max_request_pixels: self.max_request_pixels,
             max_scene_triangles: self.max_scene_triangles,
             max_decoded_bytes: self.max_decoded_bytes,
         }

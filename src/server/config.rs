@@ -36,6 +36,8 @@ pub struct Config {
     pub request_timeout_s: u64,
     /// Seconds a WebSocket send may block before the client is dropped.
     pub ws_send_timeout_s: u64,
+    /// Seconds a WebSocket client may send nothing before it is closed (1008).
+    pub ws_idle_timeout_s: u64,
     /// Seconds to finish in-flight work after the shutdown signal.
     pub shutdown_grace_s: u64,
     /// Seconds between rescans of the data dir for scenes other replicas wrote (0 = never).
@@ -49,6 +51,9 @@ pub struct Config {
     /// Most triangles one scene may hold, counted over every instance; larger uploads
     /// are refused before anything is decoded.
     pub max_scene_triangles: u64,
+    /// Most pixels one cull request may render, summed over its poses (a batch of 64
+    /// poses at 1920×1080 is 133M); more is refused with 413.
+    pub max_request_pixels: u64,
     /// Most bytes one scene's decoded geometry may take (12 per vertex and per
     /// triangle, per instance).
     pub max_decoded_bytes: u64,
@@ -81,11 +86,13 @@ impl Default for Config {
             no_batching: false,
             request_timeout_s: 60,
             ws_send_timeout_s: 10,
+            ws_idle_timeout_s: 300,
             shutdown_grace_s: 10,
             rescan_s: 2,
             budget: OccluderParams::default().budget_triangles,
             no_demo: false,
             scenes: Vec::new(),
+            max_request_pixels: 256 << 20,
             max_scene_triangles: LoadLimits::default().max_triangles,
             max_decoded_bytes: LoadLimits::default().max_decoded_bytes,
         }

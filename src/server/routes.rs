@@ -197,6 +197,20 @@ pub async fn delete_scene(
     Ok(StatusCode::NO_CONTENT)
 }
 
+/// Refuses a request whose poses render more pixels in all than the server allows.
+fn within_work_budget(state: &AppState, cams: &[Camera]) -> Result<(), ApiError> {
+    let pixels: u64 = cams.iter().map(|c| c.width as u64 * c.height as u64).sum();
+    let max = state.config.max_request_pixels;
+    if pixels > max {
+        return Err(ApiError::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "work_too_large",
+            format!("the poses render {pixels} pixels in all; the limit is {max} per request"),
+        ));
+    }
+    Ok(())
+}
+
 fn response(r: PoseResult) -> CullResponse {
     CullResponse {
         visible: r.visible,
@@ -217,6 +231,7 @@ pub async fn cull(
     let req: CullRequest = ApiError::parse_json(&body.map_err(body_error)?)?;
     req.options.validate()?;
     let cam = Camera::new(&req.pose)?;
+    within_work_budget(&state, std::slice::from_ref(&cam))?;
     let scene = state.scene(&id)?;
     let mut out = state
         .worker
@@ -254,6 +269,7 @@ pub async fn cull_batch(
                 .map_err(|e| ApiError::bad_request("invalid_pose", format!("pose {i}: {e}")))
         })
         .collect::<Result<Vec<_>, _>>()?;
+    within_work_budget(&state, &cams)?;
     let scene = state.scene(&id)?;
     if cams.is_empty() {
         return Ok(Json(BatchResponse { results: vec![] }));

@@ -109,9 +109,17 @@ fn run(mut rx: mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool) {
             }
         }
         metrics::gauge!("homcull_worker_queue").set(rx.len() as f64);
+        // A job whose client has gone (its request dropped, its socket closed) would
+        // only spend device time: drop it here, before it reaches the device.
+        let before = jobs.len();
+        jobs.retain(|j| !j.reply.is_closed());
+        if jobs.len() < before {
+            metrics::counter!("homcull_worker_abandoned_total")
+                .increment((before - jobs.len()) as u64);
+        }
         if batching {
             for group in group_jobs(jobs) {
-                run_group(group);
+                run_group(group, gpu_batch);
             }
         } else {
             for job in jobs {
@@ -188,7 +196,10 @@ fn cull_batch(
     }
 }
 
-fn run_group(group: Vec<CullJob>) {
+/// Runs a group of jobs that share an engine and options as batches of at most
+/// `gpu_batch` poses; between batches it stops if every client of the group has gone
+/// (a huge batch from a client that timed out does not hold the device for others).
+fn run_group(group: Vec<CullJob>, gpu_batch: usize) {
     let engine = group[0].engine.clone();
     let options = group[0].options;
     let cams: Vec<Camera> = group.iter().flat_map(|j| j.cams.iter().cloned()).collect();
@@ -196,19 +207,26 @@ fn run_group(group: Vec<CullJob>) {
         .iter()
         .flat_map(|j| std::iter::repeat_n(preferred(j), j.cams.len()))
         .collect();
-    match cull_batch(&engine, &cams, options, &prefer) {
-        Ok(mut results) => {
-            // Hand each job its slice, in order.
-            for job in group.into_iter().rev() {
-                let tail = results.split_off(results.len() - job.cams.len());
-                let _ = job.reply.send(Ok(tail));
+    let mut results = Vec::with_capacity(cams.len());
+    for (chunk, chunk_prefer) in cams.chunks(gpu_batch).zip(prefer.chunks(gpu_batch)) {
+        if group.iter().all(|j| j.reply.is_closed()) {
+            metrics::counter!("homcull_worker_abandoned_total").increment(group.len() as u64);
+            return;
+        }
+        match cull_batch(&engine, chunk, options, chunk_prefer) {
+            Ok(mut r) => results.append(&mut r),
+            Err(e) => {
+                for job in group {
+                    let _ = job.reply.send(Err(e.clone()));
+                }
+                return;
             }
         }
-        Err(e) => {
-            for job in group {
-                let _ = job.reply.send(Err(e.clone()));
-            }
-        }
+    }
+    // Hand each job its slice, in order.
+    for job in group.into_iter().rev() {
+        let tail = results.split_off(results.len() - job.cams.len());
+        let _ = job.reply.send(Ok(tail));
     }
 }
 
@@ -221,6 +239,9 @@ fn preferred(job: &CullJob) -> &[u32] {
 fn run_one_by_one(job: CullJob) {
     let mut out = Vec::with_capacity(job.cams.len());
     for cam in &job.cams {
+        if job.reply.is_closed() {
+            return; // the client has gone
+        }
         let prefer = [preferred(&job)];
         match cull_batch(&job.engine, std::slice::from_ref(cam), job.options, &prefer) {
             Ok(mut r) => out.append(&mut r),

@@ -209,16 +209,25 @@ async fn client(
 
     let mailbox = Arc::new(Mailbox::default());
     let (err_tx, mut err_rx) = mpsc::channel::<ErrorFrame>(8);
+    let idle = Duration::from_secs(state.config.ws_idle_timeout_s.max(1));
     let reader = {
         let mailbox = mailbox.clone();
         tokio::spawn(async move {
             let mut bad = 0u32;
             let mut motion = MotionEstimator::default();
-            while let Some(msg) = incoming.next().await {
+            let end = loop {
+                let msg = match tokio::time::timeout(idle, incoming.next()).await {
+                    Err(_) => break ReaderEnd::Idle,
+                    Ok(None) => break ReaderEnd::Gone,
+                    Ok(Some(msg)) => msg,
+                };
                 let parsed = match msg {
                     Ok(Message::Binary(b)) => parse_binary(&b),
                     Ok(Message::Text(t)) => parse_text(&t),
-                    Ok(Message::Close(_)) | Err(_) => break,
+                    Ok(Message::Close(_)) => break ReaderEnd::ClientClosed,
+                    // The library reports an over-long message or frame only by its text.
+                    Err(e) if e.to_string().contains("too long") => break ReaderEnd::TooLong,
+                    Err(_) => break ReaderEnd::Gone,
                     Ok(_) => continue, // ping/pong are answered by the library
                 };
                 match parsed {
@@ -234,11 +243,12 @@ async fn client(
                         // A full error channel means the client is not reading: drop the report.
                         let _ = err_tx.try_send(e);
                         if bad >= MAX_BAD_MESSAGES {
-                            break;
+                            break ReaderEnd::TooManyBad;
                         }
                     }
                 }
-            }
+            };
+            (end, incoming)
         })
     };
 
@@ -249,6 +259,7 @@ async fn client(
     let mut since_full = u32::MAX;
     let mut shutdown = state.shutdown.clone();
     let mut reader = reader;
+    let mut incoming_left = None;
     let close = loop {
         tokio::select! {
             _ = mailbox.ready.notified() => {}
@@ -260,7 +271,16 @@ async fn client(
                 continue;
             }
             _ = shutdown.changed() => break Some((1001, "server shutting down")),
-            _ = &mut reader => break Some((1000, "bye")),
+            ended = &mut reader => {
+                let Ok((end, rest)) = ended else { break None };
+                // Error reports still queued go out before the close frame.
+                while let Ok(e) = err_rx.try_recv() {
+                    seq = seq.wrapping_add(1);
+                    let _ = send(&sink, Frame::Error(ErrorFrame { seq, ..e }), send_timeout).await;
+                }
+                incoming_left = Some(rest);
+                break end.close();
+            }
         }
         // Frame-rate cap: culls start at most `ws_max_fps` times a second (a cull that
         // takes longer than the interval adds no wait).
@@ -321,6 +341,43 @@ async fn client(
         };
         let mut s = sink.lock().await;
         let _ = tokio::time::timeout(send_timeout, s.send(Message::Close(Some(frame)))).await;
+        // Read on until the client's close (or a second): closing with its messages
+        // still unread would reset the connection and lose the frames sent above.
+        if let Some(mut rest) = incoming_left {
+            let deadline = tokio::time::Instant::now() + Duration::from_secs(1);
+            while let Ok(Some(Ok(m))) = tokio::time::timeout_at(deadline, rest.next()).await {
+                if matches!(m, Message::Close(_)) {
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// Why a client's reader stopped.
+enum ReaderEnd {
+    /// The client sent a close frame.
+    ClientClosed,
+    /// The connection ended or failed.
+    Gone,
+    /// Nothing arrived for the idle timeout.
+    Idle,
+    /// A message over [`MAX_CLIENT_MESSAGE`].
+    TooLong,
+    /// [`MAX_BAD_MESSAGES`] malformed messages in a row.
+    TooManyBad,
+}
+
+impl ReaderEnd {
+    /// The close frame to send, if the connection can still take one.
+    fn close(self) -> Option<(u16, &'static str)> {
+        match self {
+            ReaderEnd::ClientClosed => Some((1000, "bye")),
+            ReaderEnd::Gone => None,
+            ReaderEnd::Idle => Some((1008, "idle for too long")),
+            ReaderEnd::TooLong => Some((1009, "message too big")),
+            ReaderEnd::TooManyBad => Some((1008, "too many malformed messages")),
+        }
     }
 }
 
