@@ -82,6 +82,11 @@ CONTRACT: dict[str, tuple[str, str | None]] = {
     "HOMCULL_BUDGET": ("uint", None),
     "HOMCULL_NO_DEMO": ("bool", None),
     "HOMCULL_SCENES": ("string", None),
+    "HOMCULL_MAX_SCENE_TRIANGLES": ("uint", "8000000"),
+    "HOMCULL_MAX_DECODED_BYTES": ("uint", "1073741824"),
+    "HOMCULL_MAX_REQUEST_PIXELS": ("uint", "268435456"),
+    "HOMCULL_WS_IDLE_TIMEOUT_S": ("uint", "300"),
+    "HOMCULL_ALLOWED_ORIGINS": ("string", None),
     "HOMCULL_HEALTHCHECK_URL": ("url", None),
 }
 

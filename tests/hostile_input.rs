@@ -261,3 +261,46 @@ async fn culls_must_be_declared_json() {
     assert_eq!(ok.status(), 200);
     srv.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn writes_and_streams_from_other_origins_are_refused() {
+    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+    let srv =
+        TestServer::start(|c| c.allowed_origins = vec!["https://viewer.example".into()]).await;
+    let http = reqwest::Client::new();
+    let upload = |origin: &'static str| {
+        http.post(srv.url("/v1/scenes?name=o"))
+            .header("origin", origin)
+            .body(hostile::one_triangle())
+            .send()
+    };
+    let r = upload("https://evil.example").await.unwrap();
+    assert_eq!(error_of(r).await, (403, "forbidden_origin".into()));
+    assert_eq!(
+        upload("https://viewer.example").await.unwrap().status(),
+        201
+    );
+    let own = format!("http://{}", srv.addr);
+    let r = http
+        .post(srv.url("/v1/scenes?name=o"))
+        .header("origin", own.as_str())
+        .body(hostile::one_triangle())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 201, "the server's own origin");
+    let stream = |origin: &str| {
+        let mut req = srv
+            .ws_url("/v1/scenes/demo/stream")
+            .into_client_request()
+            .unwrap();
+        req.headers_mut().insert("origin", origin.parse().unwrap());
+        tokio_tungstenite::connect_async(req)
+    };
+    assert!(
+        stream("https://evil.example").await.is_err(),
+        "refused upgrade"
+    );
+    assert!(stream(&own).await.is_ok());
+    srv.stop().await;
+}

@@ -103,6 +103,15 @@ async fn every_error_and_the_server_carries_on() {
         ),
         (
             srv.url("/v1/scenes/demo/cull/batch"),
+            format!(
+                r#"{{"poses":[{}]}}"#,
+                vec![format!(r#"{{{p},"viewport":[8192,8192]}}"#); 5].join(",")
+            ),
+            413,
+            "work_too_large",
+        ),
+        (
+            srv.url("/v1/scenes/demo/cull/batch"),
             format!(r#"{{"poses":[{{{p}}},{{"position":[0,1,0],"fov_y_deg":400}}]}}"#),
             400,
             "invalid_pose",

@@ -213,6 +213,16 @@ pub struct ServeArgs {
     /// refused before decoding.
     #[arg(long, env = "HOMCULL_MAX_SCENE_TRIANGLES", default_value_t = Config::default().max_scene_triangles)]
     pub max_scene_triangles: u64,
+    /// A browser origin (`scheme://host[:port]`, or `*`) allowed to upload, delete and
+    /// open streams besides the server's own host. Repeat the flag for more; in the
+    /// variable, separate them with commas.
+    #[arg(
+        long = "allowed-origin",
+        env = "HOMCULL_ALLOWED_ORIGINS",
+        value_delimiter = ',',
+        value_name = "ORIGIN"
+    )]
+    pub allowed_origins: Vec<String>,
     /// Most pixels one cull request may render, summed over its poses.
     #[arg(long, env = "HOMCULL_MAX_REQUEST_PIXELS", default_value_t = Config::default().max_request_pixels)]
     pub max_request_pixels: u64,
@@ -256,6 +266,7 @@ impl ServeArgs {
             budget: self.budget,
             no_demo: self.no_demo,
             scenes: self.scenes.clone(),
+            allowed_origins: self.allowed_origins.clone(),
             max_request_pixels: self.max_request_pixels,
             max_scene_triangles: self.max_scene_triangles,
             max_decoded_bytes: self.max_decoded_bytes,

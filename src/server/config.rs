@@ -51,6 +51,9 @@ pub struct Config {
     /// Most triangles one scene may hold, counted over every instance; larger uploads
     /// are refused before anything is decoded.
     pub max_scene_triangles: u64,
+    /// Browser origins (`scheme://host[:port]`, or `*`) allowed to upload, delete and
+    /// open streams besides the server's own host.
+    pub allowed_origins: Vec<String>,
     /// Most pixels one cull request may render, summed over its poses (a batch of 64
     /// poses at 1920×1080 is 133M); more is refused with 413.
     pub max_request_pixels: u64,
@@ -92,6 +95,7 @@ impl Default for Config {
             budget: OccluderParams::default().budget_triangles,
             no_demo: false,
             scenes: Vec::new(),
+            allowed_origins: Vec::new(),
             max_request_pixels: 256 << 20,
             max_scene_triangles: LoadLimits::default().max_triangles,
             max_decoded_bytes: LoadLimits::default().max_decoded_bytes,

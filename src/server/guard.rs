@@ -1,7 +1,13 @@
 //! What a request must show in its headers before its body is read: the API token on
-//! writes (uploads, deletes), and `Content-Type: application/json` on the JSON routes,
-//! so that a cross-site `text/plain` form cannot queue work. Both run as route layers,
-//! ahead of the handler's body extractor: a refused request costs no body read.
+//! writes (uploads, deletes), an allowed `Origin` on writes and WebSocket upgrades,
+//! and `Content-Type: application/json` on the JSON routes, so that a cross-site
+//! `text/plain` form cannot queue work. They run as route layers (the upgrade checks
+//! in its handler), ahead of any body extractor: a refused request costs no body read.
+//!
+//! Origins: a request without `Origin` (curl, SDKs, other servers) is not a browser's
+//! and passes. A browser's passes when its origin's host name is the `Host` it asked
+//! (ports are not compared, so a proxy that forwards `Host` without the port keeps
+//! working), or when it is listed in `Config::allowed_origins` (`*` allows any).
 
 use std::hash::BuildHasher;
 use std::sync::OnceLock;
@@ -23,11 +29,50 @@ pub async fn require_token_on_writes(
 ) -> Response {
     let write = matches!(*req.method(), Method::POST | Method::PUT | Method::DELETE);
     if write {
-        if let Err(e) = check_token(&state, req.headers()) {
+        let checked = check_origin(req.headers(), &state.config.allowed_origins)
+            .and_then(|()| check_token(&state, req.headers()));
+        if let Err(e) = checked {
             return e.into_response();
         }
     }
     next.run(req).await
+}
+
+/// Refuses (403) a browser request from an origin that is neither this host nor
+/// allowed.
+pub fn check_origin(headers: &HeaderMap, allowed: &[String]) -> Result<(), ApiError> {
+    let Some(origin) = headers.get(header::ORIGIN) else {
+        return Ok(());
+    };
+    let origin = origin.to_str().unwrap_or("");
+    let listed = allowed
+        .iter()
+        .any(|a| a == "*" || a.trim_end_matches('/').eq_ignore_ascii_case(origin));
+    let host = headers
+        .get(header::HOST)
+        .and_then(|h| h.to_str().ok())
+        .map(host_name);
+    let same_host = origin
+        .split_once("://")
+        .map(|(_, rest)| host_name(rest.split('/').next().unwrap_or("")))
+        .is_some_and(|o| !o.is_empty() && host.is_some_and(|h| h.eq_ignore_ascii_case(o)));
+    if listed || same_host {
+        Ok(())
+    } else {
+        Err(ApiError::new(
+            StatusCode::FORBIDDEN,
+            "forbidden_origin",
+            format!("requests from origin `{origin}` are not allowed here (see --allowed-origin)"),
+        ))
+    }
+}
+
+/// The host name of `host[:port]` or `[v6]:port`.
+fn host_name(authority: &str) -> &str {
+    if let Some(rest) = authority.strip_prefix('[') {
+        return rest.split(']').next().unwrap_or("");
+    }
+    authority.rsplit_once(':').map_or(authority, |(h, _)| h)
 }
 
 /// Refuses a POST whose body is not declared as JSON (415).
@@ -93,6 +138,37 @@ mod tests {
         assert!(!tokens_match(b"s3cret", b"s3cret-token"));
         assert!(!tokens_match(b"", b"s3cret-token"));
         assert!(!tokens_match(b"s3cret-token-and-more", b"s3cret-token"));
+    }
+
+    #[test]
+    fn origins() {
+        let headers = |origin: Option<&str>, host: &str| {
+            let mut h = HeaderMap::new();
+            h.insert(header::HOST, host.parse().unwrap());
+            if let Some(o) = origin {
+                h.insert(header::ORIGIN, o.parse().unwrap());
+            }
+            h
+        };
+        let none: Vec<String> = vec![];
+        assert!(check_origin(&headers(None, "a.example:8080"), &none).is_ok());
+        assert!(
+            check_origin(
+                &headers(Some("http://a.example:8080"), "a.example:8080"),
+                &none
+            )
+            .is_ok()
+        );
+        assert!(check_origin(&headers(Some("https://a.example"), "a.example"), &none).is_ok());
+        assert!(check_origin(&headers(Some("http://[::1]:80"), "[::1]:8080"), &none).is_ok());
+        let evil = headers(Some("https://evil.example"), "a.example:8080");
+        assert_eq!(
+            check_origin(&evil, &none).unwrap_err().status,
+            StatusCode::FORBIDDEN
+        );
+        assert!(check_origin(&headers(Some("null"), "a.example"), &none).is_err());
+        assert!(check_origin(&evil, &["https://evil.example".into()]).is_ok());
+        assert!(check_origin(&evil, &["*".into()]).is_ok());
     }
 
     #[test]

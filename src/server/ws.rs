@@ -91,6 +91,7 @@ pub async fn stream(
     State(state): State<AppState>,
     Path(id): Path<String>,
     query: Result<Query<StreamQuery>, axum::extract::rejection::QueryRejection>,
+    headers: axum::http::HeaderMap,
     ws: WebSocketUpgrade,
 ) -> Result<Response, ApiError> {
     let Query(q) = query.map_err(|e| ApiError::bad_request("bad_query", e.body_text()))?;
@@ -117,6 +118,7 @@ pub async fn stream(
         ));
     }
     let seen_first = q.seen_first.unwrap_or(false);
+    super::guard::check_origin(&headers, &state.config.allowed_origins)?;
     let scene = state.scene(&id)?;
     let slot = state.try_ws_slot().ok_or_else(|| {
         ApiError::overloaded(format!(
