@@ -87,6 +87,7 @@ CONTRACT: dict[str, tuple[str, str | None]] = {
     "HOMCULL_MAX_REQUEST_PIXELS": ("uint", "268435456"),
     "HOMCULL_WS_IDLE_TIMEOUT_S": ("uint", "300"),
     "HOMCULL_ALLOWED_ORIGINS": ("string", None),
+    "HOMCULL_AUTH": ("string", "writes"),
     "HOMCULL_HEALTHCHECK_URL": ("url", None),
 }
 

@@ -304,3 +304,41 @@ async fn writes_and_streams_from_other_origins_are_refused() {
     assert!(stream(&own).await.is_ok());
     srv.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn with_auth_cull_culls_and_streams_need_the_token_too() {
+    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+    let srv = TestServer::start(|c| {
+        c.api_token = Some("s3cret".into());
+        c.auth = homcull::server::AuthScope::Cull;
+    })
+    .await;
+    let http = reqwest::Client::new();
+    let pose = json!({"pose": {"position": [0, 1.7, 0], "look_at": [10, 1.7, 0]}});
+    let url = srv.url("/v1/scenes/demo/cull");
+    let r = http.post(&url).json(&pose).send().await.unwrap();
+    assert_eq!(error_of(r).await, (401, "unauthorized".into()));
+    let r = http
+        .post(&url)
+        .bearer_auth("s3cret")
+        .json(&pose)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    let stream = |token: Option<&str>| {
+        let mut req = srv
+            .ws_url("/v1/scenes/demo/stream")
+            .into_client_request()
+            .unwrap();
+        if let Some(t) = token {
+            req.headers_mut()
+                .insert("authorization", format!("Bearer {t}").parse().unwrap());
+        }
+        tokio_tungstenite::connect_async(req)
+    };
+    assert!(stream(None).await.is_err());
+    assert!(stream(Some("wrong")).await.is_err());
+    assert!(stream(Some("s3cret")).await.is_ok());
+    srv.stop().await;
+}

@@ -9,7 +9,7 @@ use homcull_proto::{DebVariant, Method};
 use crate::core::occluders::OccluderParams;
 use crate::eval::loadgen::LoadConfig;
 use crate::eval::report::{ReportOptions, Section};
-use crate::server::Config;
+use crate::server::{AuthScope, Config};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -150,6 +150,10 @@ pub struct ServeArgs {
     /// When set, uploads and deletes need `Authorization: Bearer TOKEN`.
     #[arg(long, env = "HOMCULL_API_TOKEN", hide_env_values = true)]
     pub api_token: Option<String>,
+    /// What the token guards: `writes` (uploads and deletes) or `cull` (also culls and
+    /// streams; for API-only deployments, the browser viewer cannot send it).
+    #[arg(long, env = "HOMCULL_AUTH", default_value = "writes")]
+    pub auth: AuthArg,
     /// Most poses in one `cull/batch` request.
     #[arg(long, env = "HOMCULL_MAX_BATCH", default_value_t = Config::default().max_batch)]
     pub max_batch: usize,
@@ -249,6 +253,10 @@ impl ServeArgs {
         Config {
             data_dir: self.data_dir.clone(),
             api_token: self.api_token.clone(),
+            auth: match self.auth {
+                AuthArg::Writes => AuthScope::Writes,
+                AuthArg::Cull => AuthScope::Cull,
+            },
             max_batch: self.max_batch,
             max_upload_bytes: self.max_upload_bytes,
             max_json_bytes: self.max_json_bytes,
@@ -322,6 +330,13 @@ pub struct ReportArgs {
     /// budget, viewport, batch, objects, server. Default: all.
     #[arg(long, value_delimiter = ',', value_enum)]
     pub sections: Vec<ReportSection>,
+}
+
+/// `--auth`: what the API token guards.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum AuthArg {
+    Writes,
+    Cull,
 }
 
 /// A section of `homcull report`.

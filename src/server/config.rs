@@ -7,6 +7,17 @@ use std::path::PathBuf;
 use crate::core::occluders::OccluderParams;
 use crate::core::scene::LoadLimits;
 
+/// What the API token (when set) guards.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AuthScope {
+    /// Uploads and deletes.
+    #[default]
+    Writes,
+    /// Uploads, deletes, culls of every kind and streams (API-only deployments: the
+    /// browser viewer cannot send the token).
+    Cull,
+}
+
 /// How a server runs.
 #[derive(Debug, Clone)]
 pub struct Config {
@@ -14,6 +25,8 @@ pub struct Config {
     pub data_dir: PathBuf,
     /// When set, uploads and deletes need `Authorization: Bearer TOKEN`.
     pub api_token: Option<String>,
+    /// What the token guards besides uploads and deletes.
+    pub auth: AuthScope,
     /// Most poses in one `cull/batch` request.
     pub max_batch: usize,
     /// Largest GLB upload, bytes.
@@ -78,6 +91,7 @@ impl Default for Config {
         Config {
             data_dir: PathBuf::from("./data"),
             api_token: None,
+            auth: AuthScope::Writes,
             max_batch: 1024,
             max_upload_bytes: 256 << 20,
             max_json_bytes: 8 << 20,

@@ -17,6 +17,7 @@ use axum::http::{HeaderMap, Method, StatusCode, header};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 
+use super::config::AuthScope;
 use super::error::ApiError;
 use super::state::AppState;
 
@@ -75,6 +76,20 @@ fn host_name(authority: &str) -> &str {
     authority.rsplit_once(':').map_or(authority, |(h, _)| h)
 }
 
+/// With `--auth cull`, refuses culls without the token.
+pub async fn require_token_on_culls(
+    State(state): State<AppState>,
+    req: Request,
+    next: Next,
+) -> Response {
+    if state.config.auth == AuthScope::Cull {
+        if let Err(e) = check_token(&state, req.headers()) {
+            return e.into_response();
+        }
+    }
+    next.run(req).await
+}
+
 /// Refuses a POST whose body is not declared as JSON (415).
 pub async fn require_json(req: Request, next: Next) -> Response {
     if req.method() == Method::POST && !is_json(req.headers()) {
@@ -111,7 +126,12 @@ pub fn check_token(state: &AppState, headers: &HeaderMap) -> Result<(), ApiError
         Err(ApiError::new(
             StatusCode::UNAUTHORIZED,
             "unauthorized",
-            "this server needs `Authorization: Bearer TOKEN` for uploads and deletes",
+            match state.config.auth {
+                AuthScope::Writes => {
+                    "this server needs `Authorization: Bearer TOKEN` for uploads and deletes"
+                }
+                AuthScope::Cull => "this server needs `Authorization: Bearer TOKEN`",
+            },
         ))
     }
 }

@@ -45,7 +45,7 @@ use tower_http::trace::TraceLayer;
 use utoipa::OpenApi;
 use utoipa_swagger_ui::SwaggerUi;
 
-pub use config::Config;
+pub use config::{AuthScope, Config};
 
 use crate::core::engine::Backend;
 use state::{AppState, Inner};
@@ -129,25 +129,41 @@ pub fn app(state: AppState) -> Router {
             "/v1/scenes/{id}/cull",
             post(routes::cull)
                 .layer(json_limit)
-                .route_layer(from_fn(guard::require_json)),
+                .route_layer(from_fn(guard::require_json))
+                .route_layer(from_fn_with_state(
+                    state.clone(),
+                    guard::require_token_on_culls,
+                )),
         )
         .route(
             "/v1/scenes/{id}/cull/batch",
             post(routes::cull_batch)
                 .layer(json_limit)
-                .route_layer(from_fn(guard::require_json)),
+                .route_layer(from_fn(guard::require_json))
+                .route_layer(from_fn_with_state(
+                    state.clone(),
+                    guard::require_token_on_culls,
+                )),
         )
         .route(
             "/v1/scenes/{id}/occluders",
             post(routes::occluders)
                 .layer(json_limit)
-                .route_layer(from_fn(guard::require_json)),
+                .route_layer(from_fn(guard::require_json))
+                .route_layer(from_fn_with_state(
+                    state.clone(),
+                    guard::require_token_on_culls,
+                )),
         )
         .route(
             "/v1/scenes/{id}/pyramid",
             post(routes::pyramid)
                 .layer(json_limit)
-                .route_layer(from_fn(guard::require_json)),
+                .route_layer(from_fn(guard::require_json))
+                .route_layer(from_fn_with_state(
+                    state.clone(),
+                    guard::require_token_on_culls,
+                )),
         )
         .route("/v1/scenes/{id}/stream", get(ws::stream))
         .layer(TimeoutLayer::with_status_code(

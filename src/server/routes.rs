@@ -158,13 +158,48 @@ pub async fn get_glb(
     Path(id): Path<String>,
 ) -> Result<Response, ApiError> {
     let scene = state.scene(&id)?;
-    let bytes = match &scene.glb {
-        GlbSource::Memory(b) => b.as_ref().clone(),
-        GlbSource::File(p) => tokio::fs::read(p)
-            .await
-            .map_err(|_| ApiError::unknown_scene(&id))?,
+    let (body, len) = match &scene.glb {
+        GlbSource::Memory(b) => (axum::body::Body::from(b.clone()), b.len() as u64),
+        GlbSource::File(p) => {
+            let file = tokio::fs::File::open(p)
+                .await
+                .map_err(|_| ApiError::unknown_scene(&id))?;
+            let len = file
+                .metadata()
+                .await
+                .map_err(|e| ApiError::internal(format!("reading the scene file: {e}")))?
+                .len();
+            (axum::body::Body::from_stream(file_chunks(file)), len)
+        }
     };
-    Ok(([(header::CONTENT_TYPE, "model/gltf-binary")], bytes).into_response())
+    Ok((
+        [
+            (header::CONTENT_TYPE, "model/gltf-binary".to_string()),
+            (header::CONTENT_LENGTH, len.to_string()),
+        ],
+        body,
+    )
+        .into_response())
+}
+
+/// A file as a stream of 64 KiB chunks, so a download holds one chunk in memory at a
+/// time however large the file and however slow the client.
+fn file_chunks(
+    file: tokio::fs::File,
+) -> impl futures_util::Stream<Item = std::io::Result<Bytes>> + Send {
+    use tokio::io::AsyncReadExt;
+    futures_util::stream::unfold(Some(file), |file| async move {
+        let mut file = file?;
+        let mut buf = vec![0u8; 64 << 10];
+        match file.read(&mut buf).await {
+            Ok(0) => None,
+            Ok(n) => {
+                buf.truncate(n);
+                Some((Ok(Bytes::from(buf)), Some(file)))
+            }
+            Err(e) => Some((Err(e), None)),
+        }
+    })
 }
 
 /// Deletes an uploaded scene (the demo and `--scene` files stay).

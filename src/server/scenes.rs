@@ -16,7 +16,7 @@ impl AppState {
     pub fn load_demo(&self) {
         let t = std::time::Instant::now();
         let scene = demo_city();
-        let glb = Arc::new(write_glb(&scene));
+        let glb = axum::body::Bytes::from(write_glb(&scene));
         let len = glb.len() as u64;
         let origin = Origin {
             id: "demo".into(),
@@ -41,7 +41,7 @@ impl AppState {
             Glb::File { bytes } => (GlbSource::File(file.path), bytes),
             Glb::Written(b) => {
                 let len = b.len() as u64;
-                (GlbSource::Memory(Arc::new(b)), len)
+                (GlbSource::Memory(b.into()), len)
             }
         };
         let origin = Origin {

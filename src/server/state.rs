@@ -20,8 +20,8 @@ use crate::core::scene::Scene;
 
 /// Where a scene's GLB is served from.
 pub enum GlbSource {
-    /// Built in memory (the demo city).
-    Memory(Arc<Vec<u8>>),
+    /// Built in memory (the demo city); clones share the bytes.
+    Memory(axum::body::Bytes),
     /// The stored upload.
     File(std::path::PathBuf),
 }

@@ -119,6 +119,9 @@ pub async fn stream(
     }
     let seen_first = q.seen_first.unwrap_or(false);
     super::guard::check_origin(&headers, &state.config.allowed_origins)?;
+    if state.config.auth == super::AuthScope::Cull {
+        super::guard::check_token(&state, &headers)?;
+    }
     let scene = state.scene(&id)?;
     let slot = state.try_ws_slot().ok_or_else(|| {
         ApiError::overloaded(format!(
