@@ -4,7 +4,7 @@
 //! the object table clients see, and a street-level walk start.
 
 use glam::Vec3;
-use homcull_proto::{ObjectInfo, Pose, WalkStart};
+use homcull_proto::{ObjectInfo, WalkStart};
 
 use crate::core::cull::PreparedScene;
 use crate::core::engine::{Backend, Engine};
@@ -106,22 +106,20 @@ impl ResidentScene {
 
     /// `n` random street-level poses whose eyes [`ResidentScene::accepts_eye`].
     pub fn sample_poses(&self, n: usize, seed: u64, viewport: [u32; 2]) -> SampleResult {
-        let accept = |p: Vec3| self.accepts_eye(p);
-        PoseSampler::new(self.scene()).sample(n, seed, viewport, &accept)
+        sample_poses(self.scene(), self.pvs.as_ref(), n, seed, viewport)
     }
+}
 
-    /// The poses of [`ResidentScene::sample_poses`], warning when fewer were found.
-    pub fn sample(&self, n: usize, seed: u64, viewport: [u32; 2]) -> Vec<Pose> {
-        let res = self.sample_poses(n, seed, viewport);
-        if res.poses.len() < n {
-            tracing::warn!(
-                scene = %self.scene().name,
-                "only {} of {n} poses found",
-                res.poses.len()
-            );
-        }
-        res.poses
-    }
+/// `n` random street-level poses of `scene` whose eyes [`accepts_eye`] of `pvs`.
+pub fn sample_poses(
+    scene: &Scene,
+    pvs: Option<&Pvs>,
+    n: usize,
+    seed: u64,
+    viewport: [u32; 2],
+) -> SampleResult {
+    let accept = |p: Vec3| accepts_eye(pvs, p);
+    PoseSampler::new(scene).sample(n, seed, viewport, &accept)
 }
 
 /// The scene's PVS, if it carries one; a broken one is a warning, not an error.

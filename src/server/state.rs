@@ -60,7 +60,6 @@ impl SceneEntry {
         let cached = cache
             .filter(|c| c.matches(&params, scene.objects.len()))
             .map(|c| c.ids);
-        let warnings = scene.warnings.clone();
         let resident =
             ResidentScene::assemble(scene, Residency::serving(params, cached), backend.clone());
         let scene = resident.scene();
@@ -79,7 +78,7 @@ impl SceneEntry {
             occluders: resident.engine.prepared.occluders.ids.len() as u32,
             bounds: [scene.bounds.min.to_array(), scene.bounds.max.to_array()],
             glb_bytes,
-            warnings,
+            warnings: scene.warnings.clone(),
             start: resident.start,
         };
         SceneEntry {

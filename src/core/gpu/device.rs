@@ -63,12 +63,8 @@ pub struct GpuDevice {
 
 impl GpuDevice {
     /// Opens the adapter chosen by `WGPU_ADAPTER_NAME` / `WGPU_BACKEND` /
-    /// `WGPU_POWER_PREF`, or the default one.
-    pub fn new() -> Result<Self, GpuError> {
-        Self::with_options(GpuOptions::from_env())
-    }
-
-    /// [`GpuDevice::new`] using only the optional features `options` allows.
+    /// `WGPU_POWER_PREF`, or the default one, using only the optional features
+    /// `options` allows.
     pub fn with_options(options: GpuOptions) -> Result<Self, GpuError> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         if std::env::var_os("WGPU_BACKEND").is_none() {

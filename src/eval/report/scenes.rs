@@ -8,8 +8,7 @@ use anyhow::{Context, Result};
 use super::context::{SEED, progress};
 use crate::core::camera::Camera;
 use crate::core::pvs::Pvs;
-use crate::core::resident::{accepts_eye, parse_pvs};
-use crate::core::sampler::PoseSampler;
+use crate::core::resident::{parse_pvs, sample_poses};
 use crate::core::scene::{Scene, demo_city, load_path};
 
 /// One scene of the report with its PVS (OpenArena maps) when it has one.
@@ -26,9 +25,7 @@ impl Loaded {
 
     /// `n` random street-level poses (eyes inside a PVS cluster where there is a PVS).
     pub(super) fn cams(&self, n: usize, viewport: [u32; 2]) -> Result<Vec<Camera>> {
-        let sampler = PoseSampler::new(&self.scene);
-        let accept = |p: glam::Vec3| accepts_eye(self.pvs.as_ref(), p);
-        let res = sampler.sample(n, SEED, viewport, &accept);
+        let res = sample_poses(&self.scene, self.pvs.as_ref(), n, SEED, viewport);
         if res.poses.len() < n {
             eprintln!(
                 "warning: {}: only {} of {n} poses found",
