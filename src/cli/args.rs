@@ -233,6 +233,20 @@ pub struct ServeArgs {
     /// Most bytes one scene's decoded geometry may take.
     #[arg(long, env = "HOMCULL_MAX_DECODED_BYTES", default_value_t = Config::default().max_decoded_bytes)]
     pub max_decoded_bytes: u64,
+    /// Seconds an upload may take to parse and index before it is refused (422).
+    #[arg(long, env = "HOMCULL_LOAD_TIMEOUT_S", default_value_t = Config::default().load_timeout_s)]
+    pub load_timeout_s: u64,
+    /// Seconds a connection may take to send a request's headers (from when it opens or
+    /// its previous answer went out): closes slow-header and idle keep-alive connections.
+    #[arg(long, env = "HOMCULL_HEADER_TIMEOUT_S", default_value_t = Config::default().header_timeout_s)]
+    pub header_timeout_s: u64,
+    /// Most open connections and WebSocket streams together from one address (0: no
+    /// cap); more are answered 429. Behind a proxy every client shares its address.
+    #[arg(long, env = "HOMCULL_MAX_CONNECTIONS_PER_ADDRESS", default_value_t = Config::default().max_connections_per_address)]
+    pub max_connections_per_address: usize,
+    /// Restarts of the GPU worker after a panic before the server exits non-zero.
+    #[arg(long, env = "HOMCULL_WORKER_RESTARTS", default_value_t = Config::default().worker_restarts)]
+    pub worker_restarts: u32,
 }
 
 impl Default for ServeArgs {
@@ -278,6 +292,11 @@ impl ServeArgs {
             max_request_pixels: self.max_request_pixels,
             max_scene_triangles: self.max_scene_triangles,
             max_decoded_bytes: self.max_decoded_bytes,
+            load_timeout_s: self.load_timeout_s,
+            header_timeout_s: self.header_timeout_s,
+            max_connections_per_address: self.max_connections_per_address,
+            worker_restarts: self.worker_restarts,
+            worker_panics: 0,
         }
     }
 }

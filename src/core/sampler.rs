@@ -10,18 +10,16 @@
 //!
 //! See [`METHOD`] for the procedure; the CLI prints it next to every evaluation.
 
-use std::time::Duration;
-
 use glam::{Vec2, Vec3, Vec3A, Vec3Swizzles};
 use homcull_proto::Pose;
 use obvhs::BvhBuildParams;
 use obvhs::bvh2::Bvh2;
-use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use crate::core::bvh::build_bounded;
 use crate::core::geom::Aabb;
 use crate::core::scene::Scene;
 
@@ -112,9 +110,9 @@ impl PoseSampler {
     /// Builds the triangle BVH of `scene` (once; sampling reuses it).
     pub fn new(scene: &Scene) -> Self {
         let (triangles, normals) = usable_triangles(scene);
-        let mut build_time = Duration::ZERO;
         let bvh = (!triangles.is_empty()).then(|| {
-            build_bvh2_from_tris(&triangles, BvhBuildParams::medium_build(), &mut build_time)
+            let boxes: Vec<_> = triangles.iter().map(obvhs::Boundable::aabb).collect();
+            build_bounded(&boxes, BvhBuildParams::fastest_build())
         });
         let bounds = scene.bounds;
         let far = (2.0 * bounds.diagonal()).max(MIN_FAR);

@@ -73,6 +73,22 @@ pub struct Config {
     /// Most bytes one scene's decoded geometry may take (12 per vertex and per
     /// triangle, per instance).
     pub max_decoded_bytes: u64,
+    /// Seconds a scene upload may take to parse and index before it is refused (422)
+    /// and discarded unstored.
+    pub load_timeout_s: u64,
+    /// Seconds a connection may take to send a request's headers, counted from when it
+    /// opens or its previous answer went out (closes slow-header and idle keep-alive
+    /// connections alike).
+    pub header_timeout_s: u64,
+    /// Most open connections and WebSocket streams together from one address (0: no
+    /// cap); more are answered 429.
+    pub max_connections_per_address: usize,
+    /// Restarts of the GPU worker after a panic before it stays stopped (then `/readyz`
+    /// answers 503 and the server exits non-zero).
+    pub worker_restarts: u32,
+    /// Fault injection for tests: the GPU worker panics on its first this many batches.
+    /// 0 in service; no flag sets it.
+    pub worker_panics: u32,
 }
 
 impl Config {
@@ -113,6 +129,11 @@ impl Default for Config {
             max_request_pixels: 256 << 20,
             max_scene_triangles: LoadLimits::default().max_triangles,
             max_decoded_bytes: LoadLimits::default().max_decoded_bytes,
+            load_timeout_s: 30,
+            header_timeout_s: 20,
+            max_connections_per_address: 128,
+            worker_restarts: 3,
+            worker_panics: 0,
         }
     }
 }

@@ -18,6 +18,7 @@ pub mod alloc;
 pub mod config;
 pub mod error;
 pub mod guard;
+pub mod listen;
 pub mod metrics;
 pub mod motion;
 pub mod routes;
@@ -206,7 +207,17 @@ fn start(config: Config, backend: Backend) -> std::io::Result<(AppState, watch::
     let files = scene_files::load_all(&config.scenes, &config.load_limits())
         .map_err(std::io::Error::other)?;
     let (shutdown_tx, shutdown) = watch::channel(false);
-    let worker = worker::spawn(config.queue, config.gpu_batch, !config.no_batching);
+    let supervision = worker::Supervision {
+        max_restarts: config.worker_restarts,
+        panic_first_batches: config.worker_panics,
+    };
+    let worker = worker::spawn(
+        config.queue,
+        config.gpu_batch,
+        !config.no_batching,
+        supervision,
+    );
+    let addresses = listen::AddressBook::new(config.max_connections_per_address);
     let adapter = backend.describe();
     let state = AppState(Arc::new(Inner {
         config,
@@ -217,6 +228,7 @@ fn start(config: Config, backend: Backend) -> std::io::Result<(AppState, watch::
         adapter,
         ready: AtomicBool::new(false),
         ws_clients: AtomicUsize::new(0),
+        addresses,
         shutdown,
         metrics: metrics::handle(),
         changes: Default::default(),
@@ -254,9 +266,14 @@ fn start(config: Config, backend: Backend) -> std::io::Result<(AppState, watch::
     Ok((state, shutdown_tx))
 }
 
+/// How long a server whose GPU worker stopped for good keeps answering (`/readyz` 503,
+/// culls 503) before it drains and exits.
+const WORKER_DEATH_NOTICE: Duration = Duration::from_secs(2);
+
 /// Serves `listener` until `shutdown` resolves, then drains: no new connections,
 /// in-flight requests finish, WebSockets get a close frame. Gives up after the
-/// configured grace period.
+/// configured grace period. Returns an error if the GPU worker stops for good (see
+/// [`worker`]), so that the process exits non-zero and its orchestrator restarts it.
 async fn run(
     listener: TcpListener,
     state: AppState,
@@ -264,43 +281,50 @@ async fn run(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
     let grace = Duration::from_secs(state.config.shutdown_grace_s);
+    let header_timeout = Duration::from_secs(state.config.header_timeout_s.max(1));
     let mut stopping = state.shutdown.clone();
     let sessions = state.clone();
-    let app = app(state);
-    // Small frames must leave at once: no Nagle delay on any connection.
-    let listener = axum::serve::ListenerExt::tap_io(listener, |tcp| {
-        let _ = tcp.set_nodelay(true);
-    });
-    let serve = axum::serve(listener, app).with_graceful_shutdown(async move {
-        shutdown.await;
+    let health = state.worker.health.clone();
+    let app = app(state.clone());
+    let (worker_died_tx, worker_died) = tokio::sync::oneshot::channel::<()>();
+    let stop = async move {
+        tokio::select! {
+            _ = shutdown => {}
+            _ = health.wait_stopped() => {
+                // `/readyz` answers 503 from now on: give load balancers a moment to
+                // take the server out of rotation before its connections close.
+                tokio::time::sleep(WORKER_DEATH_NOTICE).await;
+                let _ = worker_died_tx.send(());
+            }
+        }
         tracing::info!("shutting down: draining requests and closing WebSockets");
         let _ = shutdown_tx.send(true);
-    });
-    // Upgraded WebSockets are not connections axum's graceful shutdown waits for: wait
-    // until every session has sent its close frame (each holds a client slot until
-    // then), within the same grace period.
+    };
+    let serve = listen::serve(listener, app, state.addresses.clone(), header_timeout, stop);
+    // Upgraded WebSockets are not connections the accept loop waits for: wait until
+    // every session has sent its close frame (each holds a client slot until then),
+    // within the same grace period.
     let serve = async move {
-        serve.await?;
-        while sessions
-            .ws_clients
-            .load(std::sync::atomic::Ordering::SeqCst)
-            > 0
-        {
+        serve.await;
+        while sessions.ws_clients.load(Ordering::SeqCst) > 0 {
             tokio::time::sleep(Duration::from_millis(5)).await;
         }
-        Ok(())
     };
     let deadline = async move {
         let _ = stopping.wait_for(|s| *s).await;
         tokio::time::sleep(grace).await;
     };
     tokio::select! {
-        r = serve => r,
-        _ = deadline => {
-            tracing::warn!("grace period over; stopping with work in flight");
-            Ok(())
-        }
+        _ = serve => {}
+        _ = deadline => tracing::warn!("grace period over; stopping with work in flight"),
     }
+    if worker_died.await.is_ok() {
+        return Err(std::io::Error::other(format!(
+            "the GPU worker died {} times; stopping so that the service is restarted",
+            state.worker.health.restarts()
+        )));
+    }
+    Ok(())
 }
 
 /// Resolves on SIGINT or SIGTERM.

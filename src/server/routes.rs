@@ -3,6 +3,7 @@
 
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
+use std::time::Duration;
 
 use axum::Json;
 use axum::body::Bytes;
@@ -27,14 +28,18 @@ pub async fn healthz() -> Json<serde_json::Value> {
     Json(serde_json::json!({"status": "ok"}))
 }
 
-/// Readiness: scenes loaded and the adapter (or CPU fallback) ready.
+/// Readiness: scenes loaded, the adapter (or CPU fallback) ready, the GPU worker
+/// running.
 #[utoipa::path(get, path = "/readyz", responses(
     (status = 200, description = "ready; names the adapter"),
-    (status = 503, description = "starting or shutting down")))]
+    (status = 503, description = "starting, shutting down, or the GPU worker has stopped")))]
 pub async fn readyz(State(state): State<AppState>) -> Response {
-    let ready = state.ready.load(Ordering::SeqCst) && !*state.shutdown.borrow();
+    let worker_running = !state.worker.health.stopped();
+    let ready = state.ready.load(Ordering::SeqCst) && !*state.shutdown.borrow() && worker_running;
     let body = serde_json::json!({
         "ready": ready,
+        "worker": if worker_running { "running" } else { "stopped" },
+        "worker_restarts": state.worker.health.restarts(),
         "adapter": state.adapter,
         "backend": state.backend.gpu().map_or("cpu".to_string(), |g| format!("{:?}", g.info.backend).to_lowercase()),
         "cpu_fallback": state.backend.gpu().is_none(),
@@ -111,7 +116,9 @@ pub async fn upload_scene(
     }
     let st = state.clone();
     let limits = state.config.load_limits();
-    let entry = tokio::task::spawn_blocking(move || -> Result<Arc<SceneEntry>, ApiError> {
+    let claim = Arc::new(UploadClaim::default());
+    let task_claim = claim.clone();
+    let task = tokio::task::spawn_blocking(move || -> Result<Arc<SceneEntry>, ApiError> {
         let scene = load_glb_bytes_within(&body, &name, &limits)
             .map_err(|e| ApiError::bad_request("invalid_glb", format!("not a usable GLB: {e}")))?;
         if scene.objects.is_empty() {
@@ -120,12 +127,71 @@ pub async fn upload_scene(
                 "the file has no mesh-bearing nodes",
             ));
         }
+        if !task_claim.store() {
+            return Err(load_timeout(0)); // the client was answered already
+        }
         st.create(&name, &body, scene)
             .map_err(|e| ApiError::internal(format!("storing the scene: {e}")))
-    })
-    .await
-    .map_err(|e| ApiError::internal(format!("upload task failed: {e}")))??;
+    });
+    let budget = Duration::from_secs(state.config.load_timeout_s);
+    let _abandon_on_drop = AbandonOnDrop(claim.clone());
+    tokio::pin!(task);
+    let joined = match tokio::time::timeout(budget, &mut task).await {
+        Ok(joined) => joined,
+        // Over budget: refuse it, unless storing has begun (then it is as good as done).
+        Err(_) if claim.abandon() => return Err(load_timeout(budget.as_secs())),
+        Err(_) => task.await,
+    };
+    let entry = joined.map_err(|e| ApiError::internal(format!("upload task failed: {e}")))??;
     Ok((StatusCode::CREATED, Json(entry.info.clone())))
+}
+
+/// Whether an upload still in its load may be stored: whichever of the load (about to
+/// store) and the handler (over its time budget, or its client gone) comes first wins.
+#[derive(Default)]
+struct UploadClaim(std::sync::atomic::AtomicU8);
+
+impl UploadClaim {
+    const OPEN: u8 = 0;
+    const STORING: u8 = 1;
+    const ABANDONED: u8 = 2;
+
+    /// The load's side: true if it may store.
+    fn store(&self) -> bool {
+        self.swap_from_open(Self::STORING)
+    }
+
+    /// The handler's side: true if the upload will not be stored.
+    fn abandon(&self) -> bool {
+        self.swap_from_open(Self::ABANDONED) || self.0.load(Ordering::SeqCst) == Self::ABANDONED
+    }
+
+    fn swap_from_open(&self, to: u8) -> bool {
+        self.0
+            .compare_exchange(Self::OPEN, to, Ordering::SeqCst, Ordering::SeqCst)
+            .is_ok()
+    }
+}
+
+/// Abandons an upload whose request is dropped (its client gone, the request timeout)
+/// before its load has begun to store it.
+struct AbandonOnDrop(Arc<UploadClaim>);
+
+impl Drop for AbandonOnDrop {
+    fn drop(&mut self) {
+        self.0.abandon();
+    }
+}
+
+fn load_timeout(secs: u64) -> ApiError {
+    ApiError::new(
+        StatusCode::UNPROCESSABLE_ENTITY,
+        "load_timeout",
+        format!(
+            "parsing and indexing the scene took longer than the server allows ({secs} s); \
+             it was not stored"
+        ),
+    )
 }
 
 /// One scene's info.

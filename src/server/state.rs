@@ -113,6 +113,8 @@ pub struct Inner {
     pub adapter: String,
     pub ready: AtomicBool,
     pub ws_clients: AtomicUsize,
+    /// Connections and streams per peer address, against their cap.
+    pub addresses: Arc<super::listen::AddressBook>,
     pub shutdown: watch::Receiver<bool>,
     pub metrics: metrics_exporter_prometheus::PrometheusHandle,
     /// Serialises changes of the resident set (upload, delete, rescan).

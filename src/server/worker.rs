@@ -7,14 +7,20 @@
 //! one batch: one submission, one readback. Under load many clients share one
 //! submission; with one client a pose runs alone with no added wait. A full queue is
 //! answered `overloaded` at once instead of growing without bound.
+//!
+//! The worker is supervised: a panic outside a cull (inside one it becomes that
+//! batch's error) fails the jobs it held, and the worker starts over on the same queue,
+//! up to `max_restarts` times. After that it stays stopped and [`WorkerHealth`] says so:
+//! `/readyz` answers 503 and the server exits non-zero for its orchestrator to restart.
 
 use std::collections::HashMap;
 use std::panic::AssertUnwindSafe;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
 use homcull_proto::CullOptions;
-use tokio::sync::{mpsc, oneshot};
+use tokio::sync::{mpsc, oneshot, watch};
 
 use super::error::ApiError;
 use crate::core::camera::Camera;
@@ -41,6 +47,41 @@ pub struct CullJob {
 #[derive(Clone)]
 pub struct WorkerHandle {
     tx: mpsc::Sender<CullJob>,
+    pub health: Arc<WorkerHealth>,
+}
+
+/// How the worker is supervised.
+#[derive(Debug, Clone, Copy)]
+pub struct Supervision {
+    /// Restarts after a panic before the worker stays stopped.
+    pub max_restarts: u32,
+    /// Fault injection for tests: the worker panics, outside any cull, on each of the
+    /// first this many batches it takes. 0 in service.
+    pub panic_first_batches: u32,
+}
+
+/// Whether the worker runs, and how often it was restarted.
+#[derive(Debug)]
+pub struct WorkerHealth {
+    restarts: AtomicU32,
+    stopped: watch::Sender<bool>,
+}
+
+impl WorkerHealth {
+    pub fn restarts(&self) -> u32 {
+        self.restarts.load(Ordering::SeqCst)
+    }
+
+    /// Whether the worker has stopped for good (it died more often than it may restart).
+    pub fn stopped(&self) -> bool {
+        *self.stopped.borrow()
+    }
+
+    /// Resolves once the worker has stopped for good.
+    pub async fn wait_stopped(&self) {
+        let mut rx = self.stopped.subscribe();
+        let _ = rx.wait_for(|s| *s).await;
+    }
 }
 
 impl WorkerHandle {
@@ -76,27 +117,86 @@ impl WorkerHandle {
                 metrics::counter!("homcull_worker_rejected_total").increment(1);
                 ApiError::overloaded("the GPU queue is full; try again shortly")
             }
-            mpsc::error::TrySendError::Closed(_) => {
-                ApiError::internal("the GPU worker has stopped")
-            }
+            mpsc::error::TrySendError::Closed(_) => ApiError::new(
+                axum::http::StatusCode::SERVICE_UNAVAILABLE,
+                "worker_stopped",
+                "the GPU worker has stopped; the server is restarting",
+            ),
         })?;
         rx.await
             .map_err(|_| ApiError::internal("the GPU worker dropped the request"))?
     }
 }
 
-/// Starts the worker thread. It stops when every [`WorkerHandle`] is dropped.
-pub fn spawn(queue: usize, gpu_batch: usize, batching: bool) -> WorkerHandle {
+/// Starts the worker thread under `supervision`. It stops when every [`WorkerHandle`]
+/// is dropped.
+pub fn spawn(
+    queue: usize,
+    gpu_batch: usize,
+    batching: bool,
+    supervision: Supervision,
+) -> WorkerHandle {
     let (tx, rx) = mpsc::channel(queue.max(1));
+    let health = Arc::new(WorkerHealth {
+        restarts: AtomicU32::new(0),
+        stopped: watch::Sender::new(false),
+    });
+    let h = health.clone();
     std::thread::Builder::new()
         .name("homcull-gpu".into())
-        .spawn(move || run(rx, gpu_batch.max(1), batching))
+        .spawn(move || supervise(rx, gpu_batch.max(1), batching, supervision, &h))
         .expect("spawning the GPU worker thread");
-    WorkerHandle { tx }
+    WorkerHandle { tx, health }
 }
 
-fn run(mut rx: mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool) {
+/// Runs the worker, starting it over after a panic (see the module docs).
+fn supervise(
+    mut rx: mpsc::Receiver<CullJob>,
+    gpu_batch: usize,
+    batching: bool,
+    supervision: Supervision,
+    health: &WorkerHealth,
+) {
+    let mut faults = supervision.panic_first_batches;
+    loop {
+        let ran = std::panic::catch_unwind(AssertUnwindSafe(|| {
+            run(&mut rx, gpu_batch, batching, &mut faults)
+        }));
+        let Err(panic) = ran else {
+            return; // every handle is gone: the server has stopped
+        };
+        let restarts = health.restarts.fetch_add(1, Ordering::SeqCst) + 1;
+        metrics::counter!("homcull_worker_restarts_total").increment(1);
+        let what = panic_message(&*panic);
+        if restarts > supervision.max_restarts {
+            tracing::error!(
+                "the GPU worker died ({what}) after {} restarts; it stays stopped",
+                supervision.max_restarts
+            );
+            health.stopped.send_replace(true);
+            return; // drops the queue: waiting and new jobs fail at once
+        }
+        tracing::error!(
+            "the GPU worker died ({what}); restart {restarts} of {}",
+            supervision.max_restarts
+        );
+    }
+}
+
+fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+        .unwrap_or_default()
+}
+
+fn run(rx: &mut mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool, faults: &mut u32) {
     while let Some(first) = rx.blocking_recv() {
+        if *faults > 0 {
+            *faults -= 1;
+            panic!("injected fault");
+        }
         let mut poses = first.cams.len();
         let mut jobs = vec![first];
         while batching && poses < gpu_batch {
@@ -185,12 +285,7 @@ fn cull_batch(
         Ok(Ok(results)) => Ok(results),
         Ok(Err(e)) => Err(e.into()),
         Err(panic) => {
-            let what = panic
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_default();
-            tracing::error!("a cull panicked: {what}");
+            tracing::error!("a cull panicked: {}", panic_message(&*panic));
             Err(ApiError::internal("the cull failed inside the engine"))
         }
     }

@@ -97,6 +97,15 @@ impl TestServer {
         }
     }
 
+    /// Waits (without a shutdown signal) for the server to stop by itself; its result.
+    pub async fn ended(&mut self, within: Duration) -> std::io::Result<()> {
+        let task = self.task.take().expect("the server task");
+        tokio::time::timeout(within, task)
+            .await
+            .expect("the server stopped by itself in time")
+            .unwrap()
+    }
+
     /// Sends the shutdown signal without waiting.
     pub fn signal_stop(&mut self) {
         if let Some(s) = self.stop.take() {

@@ -15,27 +15,38 @@
 //! opt-in smoothing `lookahead_ms` and `hold_ms` ([`super::motion`]), which stream a
 //! superset of the pose's cull.
 //!
-//! A client that stops reading blocks only its own sender; after the send timeout it
-//! is dropped. Malformed frames get an error frame; a flood of them closes the socket.
+//! A client that stops reading is dropped within the send timeout, not when the kernel's
+//! buffers fill: the sender pings it every quarter of the timeout, and a ping left
+//! unanswered for the whole timeout ends the stream (browsers and WebSocket libraries
+//! answer pings as they read). A client that sends no pose for the idle timeout is
+//! closed (1008); pongs do not count as sending. Malformed frames get an error frame; a
+//! flood of them closes the socket. Streams count against their address's connection
+//! cap (`listen::AddressBook`).
 
+use std::net::SocketAddr;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use axum::extract::ws::{CloseFrame, Message, Utf8Bytes, WebSocket, WebSocketUpgrade};
-use axum::extract::{Path, Query, State};
+use axum::extract::{ConnectInfo, Path, Query, State};
 use axum::response::Response;
 use futures_util::{SinkExt, StreamExt};
 use glam::Vec3;
-use homcull_proto::frame::{
-    ErrorCode, ErrorFrame, Frame, FrameStats, Hello, VisibleDelta, VisibleFull, diff,
-};
-use homcull_proto::{CullOptions, DebVariant, Method, PROTOCOL_VERSION, Pose, PoseMessage};
+use homcull_proto::frame::{ErrorCode, ErrorFrame, Frame, Hello};
+use homcull_proto::{CullOptions, DebVariant, Method, PROTOCOL_VERSION, Pose};
 use serde::Deserialize;
 use tokio::sync::{Mutex, Notify, mpsc};
 
 use super::error::ApiError;
 use super::motion::{HeldSet, MAX_HOLD_MS, MAX_LOOKAHEAD_MS, MotionEstimator, moved, union};
+mod frames;
+mod liveness;
+
+use frames::{frame_stats, parse_binary, parse_text, visibility_frame};
+use liveness::{Liveness, Tick};
+
+use super::listen::AddressSlot;
 use super::state::{AppState, SceneEntry, WsClientSlot};
 use crate::core::camera::Camera;
 use crate::core::cull::PoseResult;
@@ -86,9 +97,11 @@ struct Smoothing {
 #[utoipa::path(get, path = "/v1/scenes/{id}/stream",
     params(("id" = String, Path, description = "scene id"), StreamQuery),
     responses((status = 101, description = "switching to WebSocket"),
-        (status = 404, body = homcull_proto::ErrorBody), (status = 503, body = homcull_proto::ErrorBody)))]
+        (status = 404, body = homcull_proto::ErrorBody), (status = 429, body = homcull_proto::ErrorBody),
+        (status = 503, body = homcull_proto::ErrorBody)))]
 pub async fn stream(
     State(state): State<AppState>,
+    ConnectInfo(peer): ConnectInfo<SocketAddr>,
     Path(id): Path<String>,
     query: Result<Query<StreamQuery>, axum::extract::rejection::QueryRejection>,
     headers: axum::http::HeaderMap,
@@ -123,6 +136,16 @@ pub async fn stream(
         super::guard::check_token(&state, &headers)?;
     }
     let scene = state.scene(&id)?;
+    let address = state.addresses.try_take(peer.ip()).ok_or_else(|| {
+        ApiError::new(
+            axum::http::StatusCode::TOO_MANY_REQUESTS,
+            "too_many_connections",
+            format!(
+                "too many connections and streams from one address (limit {})",
+                state.addresses.cap()
+            ),
+        )
+    })?;
     let slot = state.try_ws_slot().ok_or_else(|| {
         ApiError::overloaded(format!(
             "too many WebSocket clients (limit {})",
@@ -133,7 +156,8 @@ pub async fn stream(
         .max_message_size(MAX_CLIENT_MESSAGE)
         .max_frame_size(MAX_CLIENT_MESSAGE)
         .on_upgrade(move |socket| {
-            client(socket, state, scene, options, smoothing, seen_first, slot)
+            let slots = (slot, address);
+            client(socket, state, scene, options, smoothing, seen_first, slots)
         }))
 }
 
@@ -186,7 +210,7 @@ async fn client(
     options: CullOptions,
     smoothing: Smoothing,
     seen_first: bool,
-    _slot: WsClientSlot,
+    _slots: (WsClientSlot, AddressSlot),
 ) {
     let (sink, mut incoming) = socket.split();
     let sink = Arc::new(Mutex::new(sink));
@@ -215,13 +239,16 @@ async fn client(
     let mailbox = Arc::new(Mailbox::default());
     let (err_tx, mut err_rx) = mpsc::channel::<ErrorFrame>(8);
     let idle = Duration::from_secs(state.config.ws_idle_timeout_s.max(1));
+    let liveness = Arc::new(Liveness::new());
     let reader = {
         let mailbox = mailbox.clone();
+        let liveness = liveness.clone();
         tokio::spawn(async move {
             let mut bad = 0u32;
             let mut motion = MotionEstimator::default();
+            let mut idle_at = tokio::time::Instant::now() + idle;
             let end = loop {
-                let msg = match tokio::time::timeout(idle, incoming.next()).await {
+                let msg = match tokio::time::timeout_at(idle_at, incoming.next()).await {
                     Err(_) => break ReaderEnd::Idle,
                     Ok(None) => break ReaderEnd::Gone,
                     Ok(Some(msg)) => msg,
@@ -230,11 +257,16 @@ async fn client(
                     Ok(Message::Binary(b)) => parse_binary(&b),
                     Ok(Message::Text(t)) => parse_text(&t),
                     Ok(Message::Close(_)) => break ReaderEnd::ClientClosed,
+                    Ok(Message::Pong(_)) => {
+                        liveness.ponged();
+                        continue;
+                    }
                     // The library reports an over-long message or frame only by its text.
                     Err(e) if e.to_string().contains("too long") => break ReaderEnd::TooLong,
                     Err(_) => break ReaderEnd::Gone,
                     Ok(_) => continue, // ping/pong are answered by the library
                 };
+                idle_at = tokio::time::Instant::now() + idle;
                 match parsed {
                     Ok(mut p) => {
                         bad = 0;
@@ -265,9 +297,30 @@ async fn client(
     let mut shutdown = state.shutdown.clone();
     let mut reader = reader;
     let mut incoming_left = None;
+    let ping_every = (send_timeout / 4).max(Duration::from_millis(100));
+    let mut ping = tokio::time::interval_at(tokio::time::Instant::now() + ping_every, ping_every);
+    ping.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let close = loop {
         tokio::select! {
             _ = mailbox.ready.notified() => {}
+            _ = ping.tick() => {
+                match liveness.on_tick(send_timeout) {
+                    Tick::Wait => {}
+                    Tick::Ping => {
+                        let mut s = sink.lock().await;
+                        let sent = tokio::time::timeout(send_timeout, s.send(Message::Ping(Default::default())));
+                        if !matches!(sent.await, Ok(Ok(()))) {
+                            break None;
+                        }
+                    }
+                    Tick::Unanswered => {
+                        tracing::info!("a WebSocket client stopped reading (a ping went unanswered); dropping it");
+                        metrics::counter!("homcull_ws_unresponsive_total").increment(1);
+                        break None;
+                    }
+                }
+                continue;
+            }
             Some(e) = err_rx.recv() => {
                 seq = seq.wrapping_add(1);
                 if send(&sink, Frame::Error(ErrorFrame { seq, ..e }), send_timeout).await.is_err() {
@@ -423,52 +476,6 @@ fn smoothed(
     r
 }
 
-/// The answer to pose `ack`: a delta from `last_set` (the set last sent to this client) to
-/// `visible`, or a full frame when `want_full` or when the change does not fit in a delta
-/// frame (more than [`MAX_DELTA_IDS`](homcull_proto::frame::MAX_DELTA_IDS) IDs added or
-/// removed).
-fn visibility_frame(
-    seq: u32,
-    ack: u32,
-    stats: FrameStats,
-    last_set: &[u32],
-    visible: &[u32],
-    want_full: bool,
-) -> Frame {
-    if !want_full {
-        let (added, removed) = diff(last_set, visible);
-        let delta = VisibleDelta {
-            seq,
-            ack,
-            stats,
-            added,
-            removed,
-        };
-        if delta.fits() {
-            return Frame::Delta(delta);
-        }
-    }
-    Frame::Full(VisibleFull {
-        seq,
-        ack,
-        stats,
-        ids: visible.to_vec(),
-    })
-}
-
-fn frame_stats(r: &PoseResult, dropped: u32, started: Instant) -> FrameStats {
-    let us = |ms: f64| (ms * 1e3).clamp(0.0, u32::MAX as f64) as u32;
-    // objects, culled_by_frustum and culled_by_occlusion are not sent: clients derive
-    // them from the Hello's object count, `candidates` and the visible set.
-    FrameStats {
-        candidates: r.stats.candidates,
-        occluders_used: r.stats.occluders_used,
-        dropped_poses: dropped,
-        gpu_us: us(r.stats.gpu_ms),
-        total_us: us(started.elapsed().as_secs_f64() * 1e3),
-    }
-}
-
 async fn send(sink: &Mutex<Sink>, frame: Frame, timeout: Duration) -> Result<(), ()> {
     let bytes = frame.encode();
     let kind = frame.kind().name();
@@ -482,102 +489,5 @@ async fn send(sink: &Mutex<Sink>, frame: Frame, timeout: Duration) -> Result<(),
             tracing::info!("a WebSocket client stopped reading; dropping it");
             Err(())
         }
-    }
-}
-
-fn bad(code: ErrorCode, message: String) -> ErrorFrame {
-    ErrorFrame {
-        seq: 0,
-        ack: 0,
-        code,
-        message,
-    }
-}
-
-fn parse_binary(bytes: &[u8]) -> Result<Pending, ErrorFrame> {
-    match Frame::decode(bytes) {
-        Ok(Frame::Pose(p)) => {
-            let pose = p.to_pose();
-            let cam = Camera::new(&pose).map_err(|e| ErrorFrame {
-                ack: p.seq,
-                ..bad(ErrorCode::InvalidPose, e.to_string())
-            })?;
-            Ok(Pending {
-                seq: p.seq,
-                pose,
-                cam,
-                want_full: p.want_full,
-                velocity: Vec3::ZERO,
-            })
-        }
-        Ok(other) => Err(bad(
-            ErrorCode::MalformedFrame,
-            format!("clients send pose frames, not {}", other.kind().name()),
-        )),
-        Err(e) => Err(bad(e.code(), e.to_string())),
-    }
-}
-
-fn parse_text(text: &str) -> Result<Pending, ErrorFrame> {
-    let m: PoseMessage = serde_json::from_str(text)
-        .map_err(|e| bad(ErrorCode::MalformedFrame, format!("pose message: {e}")))?;
-    let cam = Camera::new(&m.pose).map_err(|e| ErrorFrame {
-        ack: m.seq,
-        ..bad(ErrorCode::InvalidPose, e.to_string())
-    })?;
-    Ok(Pending {
-        seq: m.seq,
-        pose: m.pose,
-        cam,
-        want_full: m.full,
-        velocity: Vec3::ZERO,
-    })
-}
-
-#[cfg(test)]
-mod tests {
-    use homcull_proto::frame::{MAX_DELTA_IDS, apply_delta};
-
-    use super::*;
-
-    #[test]
-    fn a_change_too_big_for_a_delta_goes_out_as_a_full_frame() {
-        let stats = FrameStats::default();
-        let max = MAX_DELTA_IDS as u32;
-        let many: Vec<u32> = (0..max + 1).collect();
-        let fits: Vec<u32> = (1..max + 1).collect();
-        // 65535 removed (and 65535 added) still fit in one delta...
-        let shifted: Vec<u32> = (max + 1..2 * max + 1).collect();
-        match visibility_frame(1, 1, stats, &fits, &shifted, false) {
-            Frame::Delta(d) => {
-                assert_eq!(
-                    (d.added.len(), d.removed.len()),
-                    (MAX_DELTA_IDS, MAX_DELTA_IDS)
-                );
-                let mut set = fits.clone();
-                apply_delta(&mut set, &d).unwrap();
-                assert_eq!(set, shifted);
-            }
-            f => panic!("expected a delta, got {:?}", f.kind()),
-        }
-        // ...65536 do not, in either list.
-        for (old, new) in [(&many, &Vec::new()), (&Vec::new(), &many)] {
-            match visibility_frame(2, 2, stats, old, new, false) {
-                Frame::Full(f) => {
-                    assert_eq!(&f.ids, new);
-                    assert_eq!(Frame::Full(f).validate(), Ok(()));
-                }
-                f => panic!("expected a full frame, got {:?}", f.kind()),
-            }
-        }
-        // Small changes are deltas unless a full frame is asked for.
-        assert!(matches!(
-            visibility_frame(3, 3, stats, &[1, 2], &[2, 3], false),
-            Frame::Delta(d) if d.added == [3] && d.removed == [1]
-        ));
-        assert!(matches!(
-            visibility_frame(4, 4, stats, &[1, 2], &[2, 3], true),
-            Frame::Full(f) if f.ids == [2, 3]
-        ));
     }
 }
