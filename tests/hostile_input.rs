@@ -65,6 +65,9 @@ fn what_fits_the_limits_loads_and_the_limits_are_what_refuse() {
     assert!(err.unwrap_err().to_string().contains("500 node instances"));
 }
 
+/// How far resident memory may rise while the hostile uploads are refused.
+const HOSTILE_RSS_MIB: f64 = 64.0;
+
 /// GET /healthz, timed.
 async fn healthz_ms(http: &reqwest::Client, srv: &TestServer) -> f64 {
     let t = Instant::now();
@@ -77,6 +80,8 @@ async fn healthz_ms(http: &reqwest::Client, srv: &TestServer) -> f64 {
 async fn hostile_uploads_get_a_4xx_and_the_server_carries_on() {
     let srv = TestServer::start(|c| c.no_demo = true).await;
     let http = reqwest::Client::new();
+    let rss0 = common::rss_mib();
+    let mut rss_peak = rss0;
     for (name, glb) in hostile::all_refused() {
         let t = Instant::now();
         let r = http
@@ -94,7 +99,13 @@ async fn hostile_uploads_get_a_4xx_and_the_server_carries_on() {
         );
         let ms = healthz_ms(&http, &srv).await;
         assert!(ms < 100.0, "/healthz took {ms:.1} ms after {name}");
+        rss_peak = rss_peak.max(common::rss_mib());
     }
+    // Each file asks for gigabytes; refused before decoding, none gets near it.
+    assert!(
+        rss_peak < rss0 + HOSTILE_RSS_MIB,
+        "resident memory {rss0:.1} -> {rss_peak:.1} MiB"
+    );
     let stored = std::fs::read_dir(srv.data_dir.join("scenes"))
         .unwrap()
         .count();

@@ -58,3 +58,19 @@ pub mod hostile;
 pub mod rest;
 pub mod server;
 pub mod ws;
+
+/// This process's open file descriptors (the in-process test server's included).
+pub fn open_fds() -> usize {
+    std::fs::read_dir("/proc/self/fd").map_or(0, |d| d.count())
+}
+
+/// This process's resident memory, MiB (`/proc/self/statm`).
+pub fn rss_mib() -> f64 {
+    let statm = std::fs::read_to_string("/proc/self/statm").unwrap_or_default();
+    let pages: f64 = statm
+        .split_whitespace()
+        .nth(1)
+        .and_then(|p| p.parse().ok())
+        .unwrap_or(0.0);
+    pages * 4096.0 / (1 << 20) as f64
+}

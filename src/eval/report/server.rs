@@ -41,6 +41,8 @@ async fn runs(
         ws_max_fps: 10_000.0,
         rescan_s: 0,
         no_batching: !batching,
+        // Every load client comes from loopback.
+        max_connections_per_address: 0,
         ..Config::default()
     };
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
