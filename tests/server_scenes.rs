@@ -5,7 +5,7 @@
 mod common;
 
 use common::rest::{error_of, small_glb};
-use common::server::{TestServer, get_json, post_json};
+use common::server::{TestServer, get_bytes, get_json, post_json};
 use homcull::core::engine::Backend;
 use homcull::core::scene::write_glb;
 use homcull_proto::{CullResponse, ObjectList, SceneInfo, SceneList};
@@ -114,14 +114,7 @@ async fn uploads_persist_across_restarts_and_writes_need_the_token() {
     let cull_url = srv.url(&format!("/v1/scenes/{}/cull", info.id));
     let after: CullResponse = post_json(&http, &cull_url, &pose).await;
     assert_eq!(after.visible, before.visible);
-    let glb_back = http
-        .get(srv.url(&format!("/v1/scenes/{}/glb", info.id)))
-        .send()
-        .await
-        .unwrap()
-        .bytes()
-        .await
-        .unwrap();
+    let glb_back = get_bytes(&http, srv.url(&format!("/v1/scenes/{}/glb", info.id))).await;
     assert_eq!(
         glb_back.as_ref(),
         glb.as_slice(),

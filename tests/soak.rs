@@ -22,7 +22,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use common::server::{TestServer, street_walk};
+use common::server::{TestServer, get_bytes, street_walk};
 use common::ws::{Tracker, Ws, connect, next_frame, pose_frame, rest_cull};
 use common::{hostile, open_fds, rss_mib};
 use futures_util::{SinkExt, StreamExt};
@@ -232,14 +232,7 @@ async fn legitimate_clients_stay_correct_and_quick_among_abusive_ones() {
         .unwrap();
     assert_eq!(stored.status(), 201);
     let kept: homcull_proto::SceneInfo = stored.json().await.unwrap();
-    let kept_glb = http
-        .get(srv.url(&format!("/v1/scenes/{}/glb", kept.id)))
-        .send()
-        .await
-        .unwrap()
-        .bytes()
-        .await
-        .unwrap();
+    let kept_glb = get_bytes(&http, srv.url(&format!("/v1/scenes/{}/glb", kept.id))).await;
     drop(http);
     // Warm up every path once before the baseline (allocator arenas, first-use caches).
     let warm = Instant::now() + Duration::from_secs(3);
@@ -316,14 +309,7 @@ async fn legitimate_clients_stay_correct_and_quick_among_abusive_ones() {
     let mut want_ids = vec!["demo", kept.id.as_str()];
     want_ids.sort_unstable();
     assert_eq!(ids, want_ids);
-    let glb = http
-        .get(srv.url(&format!("/v1/scenes/{}/glb", kept.id)))
-        .send()
-        .await
-        .unwrap()
-        .bytes()
-        .await
-        .unwrap();
+    let glb = get_bytes(&http, srv.url(&format!("/v1/scenes/{}/glb", kept.id))).await;
     assert_eq!(glb, kept_glb);
     let on_disk = std::fs::read_dir(srv.data_dir.join("scenes"))
         .unwrap()

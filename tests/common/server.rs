@@ -122,6 +122,11 @@ pub async fn get_json<T: serde::de::DeserializeOwned>(
     http.get(url).send().await.unwrap().json().await.unwrap()
 }
 
+/// `GET url`; the answer's body bytes (panics on any failure).
+pub async fn get_bytes(http: &reqwest::Client, url: impl reqwest::IntoUrl) -> axum::body::Bytes {
+    http.get(url).send().await.unwrap().bytes().await.unwrap()
+}
+
 /// `POST url` with a JSON body; the answer's JSON body (panics on any failure).
 pub async fn post_json<T: serde::de::DeserializeOwned>(
     http: &reqwest::Client,
