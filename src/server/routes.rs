@@ -127,11 +127,9 @@ pub async fn upload_scene(
                 "the file has no mesh-bearing nodes",
             ));
         }
-        if !task_claim.store() {
-            return Err(load_timeout(0)); // the client was answered already
-        }
-        st.create(&name, &body, scene)
-            .map_err(|e| ApiError::internal(format!("storing the scene: {e}")))
+        st.create(&name, &body, scene, || task_claim.store())
+            .map_err(|e| ApiError::internal(format!("storing the scene: {e}")))?
+            .ok_or_else(|| load_timeout(0)) // not stored: the client was answered already
     });
     let budget = Duration::from_secs(state.config.load_timeout_s);
     let _abandon_on_drop = AbandonOnDrop(claim.clone());

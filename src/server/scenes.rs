@@ -7,8 +7,9 @@ use std::sync::Arc;
 
 use super::alloc::release_free_heap;
 use super::scene_files::{Glb, SceneFile};
-use super::state::{AppState, GlbSource, Origin, SceneEntry};
+use super::state::{AppState, GlbSource, Origin, SceneEntry, assemble};
 use super::store::SceneMeta;
+use crate::core::resident::ResidentScene;
 use crate::core::scene::{Scene, demo_city, load_glb_bytes_within, write_glb};
 
 impl AppState {
@@ -96,17 +97,50 @@ impl AppState {
         }
     }
 
-    /// Stores a new upload (already parsed as `scene`) and makes it resident (blocking).
-    pub fn create(&self, name: &str, glb: &[u8], scene: Scene) -> std::io::Result<Arc<SceneEntry>> {
+    /// Makes a new upload (already parsed as `scene`) resident and stores it, if
+    /// `may_store()` still says so once the scene is assembled (blocking). `None`: it
+    /// was not stored (its client has been answered already).
+    pub fn create(
+        &self,
+        name: &str,
+        glb: &[u8],
+        scene: Scene,
+        may_store: impl FnOnce() -> bool,
+    ) -> std::io::Result<Option<Arc<SceneEntry>>> {
+        let t = std::time::Instant::now();
+        let resident = assemble(scene, self.occluder_params(), None, &self.backend);
+        if !may_store() {
+            return Ok(None);
+        }
         let _changing = self.changes.lock().unwrap_or_else(|p| p.into_inner());
         let meta = self.store.create(name, glb)?;
-        Ok(self.prepare(&meta, scene, glb.len() as u64))
+        Ok(Some(self.commit(
+            &meta,
+            resident,
+            glb.len() as u64,
+            false,
+            t,
+        )))
     }
 
     fn prepare(&self, meta: &SceneMeta, scene: Scene, glb_bytes: u64) -> Arc<SceneEntry> {
         let t = std::time::Instant::now();
         let cache = self.store.read_occluders(&meta.id);
         let cached = cache.is_some();
+        let resident = assemble(scene, self.occluder_params(), cache, &self.backend);
+        self.commit(meta, resident, glb_bytes, cached, t)
+    }
+
+    /// Makes an assembled stored scene an entry, caches its occluders unless they came
+    /// from the cache, and inserts it.
+    fn commit(
+        &self,
+        meta: &SceneMeta,
+        resident: ResidentScene,
+        glb_bytes: u64,
+        cached: bool,
+        t: std::time::Instant,
+    ) -> Arc<SceneEntry> {
         let origin = Origin {
             id: meta.id.clone(),
             name: meta.name.clone(),
@@ -114,7 +148,7 @@ impl AppState {
             glb_bytes,
             read_only: false,
         };
-        let entry = SceneEntry::build(origin, scene, self.occluder_params(), cache, &self.backend);
+        let entry = SceneEntry::new(origin, resident);
         if !cached {
             if let Err(e) = self
                 .store

@@ -37,6 +37,20 @@ pub(super) struct Origin {
     pub(super) read_only: bool,
 }
 
+/// Assembles a scene for serving on `backend`, occluders from `cache` when it fits: the
+/// slow part of making a scene resident (BVHs, occluder database, walk start).
+pub(super) fn assemble(
+    scene: Scene,
+    params: OccluderParams,
+    cache: Option<OccluderCache>,
+    backend: &Backend,
+) -> ResidentScene {
+    let cached = cache
+        .filter(|c| c.matches(&params, scene.objects.len()))
+        .map(|c| c.ids);
+    ResidentScene::assemble(scene, Residency::serving(params, cached), backend.clone())
+}
+
 /// One resident scene.
 pub struct SceneEntry {
     pub info: SceneInfo,
@@ -57,11 +71,11 @@ impl SceneEntry {
         cache: Option<OccluderCache>,
         backend: &Backend,
     ) -> SceneEntry {
-        let cached = cache
-            .filter(|c| c.matches(&params, scene.objects.len()))
-            .map(|c| c.ids);
-        let resident =
-            ResidentScene::assemble(scene, Residency::serving(params, cached), backend.clone());
+        SceneEntry::new(origin, assemble(scene, params, cache, backend))
+    }
+
+    /// The entry of a scene already assembled (the slow part, see [`assemble`]).
+    pub(super) fn new(origin: Origin, resident: ResidentScene) -> SceneEntry {
         let scene = resident.scene();
         let Origin {
             id,
