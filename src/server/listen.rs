@@ -5,10 +5,10 @@
 //!   `header_timeout_s` of opening or of its previous answer. That closes slow-header
 //!   connections (a few bytes a minute) and idle keep-alive connections alike.
 //! - **Per-address cap**: one address holds at most `max_connections_per_address` open
-//!   connections and WebSocket streams together ([`AddressBook`]); a connection over it
-//!   gets a 429 and is closed, before any of its bytes are read.
-//! - The peer's address reaches handlers as [`ConnectInfo`] (the stream route counts
-//!   its streams against the same cap).
+//!   connections ([`AddressBook`]); a connection over it gets a 429 and is closed,
+//!   before any of its bytes are read. A connection upgraded to a WebSocket stream
+//!   hands its slot to the stream ([`ConnectionSlot`]), so a stream counts as the
+//!   connection it was, for as long as it lives.
 //! - **Drain**: on shutdown the loop stops accepting, asks every connection to close
 //!   once its request in flight is answered, and waits for them.
 
@@ -19,13 +19,23 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use axum::Router;
-use axum::extract::ConnectInfo;
 use hyper::body::Incoming;
 use hyper_util::rt::{TokioIo, TokioTimer};
 use tokio::io::AsyncWriteExt;
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::watch;
 use tower::ServiceExt;
+
+/// A connection's slot, in its requests' extensions: the stream route takes it over.
+#[derive(Clone, Debug)]
+pub struct ConnectionSlot(Arc<Mutex<Option<AddressSlot>>>);
+
+impl ConnectionSlot {
+    /// The slot, moved out of the connection (`None` if already taken).
+    pub fn take(&self) -> Option<AddressSlot> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner()).take()
+    }
+}
 
 /// Open connections and streams per peer address, against a cap (0: no cap).
 #[derive(Debug)]
@@ -70,10 +80,6 @@ impl AddressBook {
             .unwrap_or_else(|p| p.into_inner())
             .values()
             .sum()
-    }
-
-    pub fn cap(&self) -> usize {
-        self.cap
     }
 }
 
@@ -136,8 +142,10 @@ pub async fn serve(
         // Small frames must leave at once: no Nagle delay on any connection.
         let _ = tcp.set_nodelay(true);
         let app = app.clone();
+        let slot = ConnectionSlot(Arc::new(Mutex::new(Some(slot))));
+        let held = slot.clone(); // dropped with the connection, unless a stream took it
         let service = hyper::service::service_fn(move |mut req: hyper::Request<Incoming>| {
-            req.extensions_mut().insert(ConnectInfo(peer));
+            req.extensions_mut().insert(slot.clone());
             app.clone().oneshot(req)
         });
         let conn = http
@@ -145,7 +153,7 @@ pub async fn serve(
             .with_upgrades();
         let mut stop = stop.clone();
         tokio::spawn(async move {
-            let _slot = slot;
+            let _held = held;
             tokio::pin!(conn);
             let done = tokio::select! {
                 r = conn.as_mut() => Some(r),

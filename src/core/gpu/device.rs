@@ -71,6 +71,20 @@ impl GpuDevice {
             // Vulkan/Metal/DX12 only: GL lacks what the passes need and its probe is noisy.
             desc.backends = wgpu::Backends::PRIMARY;
         }
+        if !cfg!(windows) && std::env::var_os("WGPU_VALIDATION_INDIRECT_CALL").is_none() {
+            // wgpu checks every indirect draw's arguments on the GPU in release builds:
+            // per render pass a staging buffer, a copy, a dispatch and three barrier
+            // sets, and host work per draw. Ours need none of it. Every argument is
+            // written by `raster::indirect_draws` from the scene's own index ranges
+            // (within the index buffer they were cut from), a non-zero first instance
+            // comes with INDIRECT_FIRST_INSTANCE (required whenever indirect draws are
+            // used), and no vertex buffer steps per instance. Kept on Windows: without
+            // it DX12 leaves `first_instance` out of `@builtin(instance_index)`, which
+            // the vertex stage reads as the object ID. `WGPU_VALIDATION_INDIRECT_CALL=1`
+            // turns it back on.
+            desc.flags
+                .remove(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL);
+        }
         let instance = wgpu::Instance::new(desc);
         let adapter = pollster::block_on(choose_adapter(&instance))?;
         let info = adapter.get_info();

@@ -20,16 +20,15 @@
 //! unanswered for the whole timeout ends the stream (browsers and WebSocket libraries
 //! answer pings as they read). A client that sends no pose for the idle timeout is
 //! closed (1008); pongs do not count as sending. Malformed frames get an error frame; a
-//! flood of them closes the socket. Streams count against their address's connection
-//! cap (`listen::AddressBook`).
+//! flood of them closes the socket. A stream keeps its connection's place under the
+//! per-address cap (`listen::ConnectionSlot`).
 
-use std::net::SocketAddr;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use axum::extract::ws::{CloseFrame, Message, Utf8Bytes, WebSocket, WebSocketUpgrade};
-use axum::extract::{ConnectInfo, Path, Query, State};
+use axum::extract::{Extension, Path, Query, State};
 use axum::response::Response;
 use futures_util::{SinkExt, StreamExt};
 use glam::Vec3;
@@ -46,7 +45,7 @@ mod liveness;
 use frames::{frame_stats, parse_binary, parse_text, visibility_frame};
 use liveness::{Liveness, Tick};
 
-use super::listen::AddressSlot;
+use super::listen::{AddressSlot, ConnectionSlot};
 use super::state::{AppState, SceneEntry, WsClientSlot};
 use crate::core::camera::Camera;
 use crate::core::cull::PoseResult;
@@ -97,11 +96,10 @@ struct Smoothing {
 #[utoipa::path(get, path = "/v1/scenes/{id}/stream",
     params(("id" = String, Path, description = "scene id"), StreamQuery),
     responses((status = 101, description = "switching to WebSocket"),
-        (status = 404, body = homcull_proto::ErrorBody), (status = 429, body = homcull_proto::ErrorBody),
-        (status = 503, body = homcull_proto::ErrorBody)))]
+        (status = 404, body = homcull_proto::ErrorBody), (status = 503, body = homcull_proto::ErrorBody)))]
 pub async fn stream(
     State(state): State<AppState>,
-    ConnectInfo(peer): ConnectInfo<SocketAddr>,
+    connection: Option<Extension<ConnectionSlot>>,
     Path(id): Path<String>,
     query: Result<Query<StreamQuery>, axum::extract::rejection::QueryRejection>,
     headers: axum::http::HeaderMap,
@@ -136,16 +134,8 @@ pub async fn stream(
         super::guard::check_token(&state, &headers)?;
     }
     let scene = state.scene(&id)?;
-    let address = state.addresses.try_take(peer.ip()).ok_or_else(|| {
-        ApiError::new(
-            axum::http::StatusCode::TOO_MANY_REQUESTS,
-            "too_many_connections",
-            format!(
-                "too many connections and streams from one address (limit {})",
-                state.addresses.cap()
-            ),
-        )
-    })?;
+    // The stream goes on counting as its connection against the per-address cap.
+    let address = connection.and_then(|Extension(c)| c.take());
     let slot = state.try_ws_slot().ok_or_else(|| {
         ApiError::overloaded(format!(
             "too many WebSocket clients (limit {})",
@@ -210,7 +200,7 @@ async fn client(
     options: CullOptions,
     smoothing: Smoothing,
     seen_first: bool,
-    _slots: (WsClientSlot, AddressSlot),
+    _slots: (WsClientSlot, Option<AddressSlot>),
 ) {
     let (sink, mut incoming) = socket.split();
     let sink = Arc::new(Mutex::new(sink));
