@@ -110,6 +110,38 @@ async fn one_address_holds_at_most_its_cap_of_connections_and_streams() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_refused_stream_upgrade_leaves_its_connection_counted() {
+    let srv = TestServer::start(|c| {
+        c.max_connections_per_address = 2;
+        c.max_ws_clients = 1;
+    })
+    .await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let _ws = connect(&srv, "").await;
+    // A second stream is over the WebSocket client cap: 503, and its connection stays.
+    let mut refused = TcpStream::connect(srv.addr).await.unwrap();
+    refused
+        .write_all(
+            b"GET /v1/scenes/demo/stream HTTP/1.1\r\nHost: x\r\nConnection: Upgrade\r\n\
+              Upgrade: websocket\r\nSec-WebSocket-Version: 13\r\n\
+              Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n",
+        )
+        .await
+        .unwrap();
+    let mut head = [0u8; 12];
+    refused.read_exact(&mut head).await.unwrap();
+    assert_eq!(&head, b"HTTP/1.1 503");
+    let mut third = TcpStream::connect(srv.addr).await.unwrap();
+    let answer = read_answer(&mut third).await;
+    assert!(
+        answer.starts_with("HTTP/1.1 429"),
+        "the open connection of the refused upgrade no longer counted: {answer}"
+    );
+    drop(refused);
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_stream_client_that_stops_reading_is_dropped_within_the_send_timeout() {
     let srv = TestServer::start(|c| c.ws_send_timeout_s = 1).await;
     let mut ws = connect(&srv, "").await;

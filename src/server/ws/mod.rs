@@ -23,6 +23,9 @@
 //! flood of them closes the socket. A stream keeps its connection's place under the
 //! per-address cap (`listen::ConnectionSlot`).
 
+mod frames;
+mod liveness;
+
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
@@ -37,15 +40,12 @@ use homcull_proto::{CullOptions, DebVariant, Method, PROTOCOL_VERSION, Pose};
 use serde::Deserialize;
 use tokio::sync::{Mutex, Notify, mpsc};
 
-use super::error::ApiError;
-use super::motion::{HeldSet, MAX_HOLD_MS, MAX_LOOKAHEAD_MS, MotionEstimator, moved, union};
-mod frames;
-mod liveness;
-
 use frames::{frame_stats, parse_binary, parse_text, visibility_frame};
 use liveness::{Liveness, Tick};
 
+use super::error::ApiError;
 use super::listen::{AddressSlot, ConnectionSlot};
+use super::motion::{HeldSet, MAX_HOLD_MS, MAX_LOOKAHEAD_MS, MotionEstimator, moved, union};
 use super::state::{AppState, SceneEntry, WsClientSlot};
 use crate::core::camera::Camera;
 use crate::core::cull::PoseResult;
@@ -134,14 +134,15 @@ pub async fn stream(
         super::guard::check_token(&state, &headers)?;
     }
     let scene = state.scene(&id)?;
-    // The stream goes on counting as its connection against the per-address cap.
-    let address = connection.and_then(|Extension(c)| c.take());
     let slot = state.try_ws_slot().ok_or_else(|| {
         ApiError::overloaded(format!(
             "too many WebSocket clients (limit {})",
             state.config.max_ws_clients
         ))
     })?;
+    // The stream goes on counting as its connection against the per-address cap (taken
+    // only now: a refused upgrade leaves the connection, still open, counted).
+    let address = connection.and_then(|Extension(c)| c.take());
     Ok(ws
         .max_message_size(MAX_CLIENT_MESSAGE)
         .max_frame_size(MAX_CLIENT_MESSAGE)
