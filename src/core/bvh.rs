@@ -21,14 +21,6 @@ use obvhs::{BvhBuildParams, bvh2::Bvh2, bvh2::builder::build_bvh2};
 use crate::core::camera::Camera;
 use crate::core::geom::Aabb;
 
-struct Item(obvhs::aabb::Aabb);
-
-impl obvhs::Boundable for Item {
-    fn aabb(&self) -> obvhs::aabb::Aabb {
-        self.0
-    }
-}
-
 /// A BVH over a list of boxes; queries return indices into that list.
 pub struct BoxBvh {
     bvh: Bvh2,
@@ -44,17 +36,14 @@ impl BoxBvh {
         let items: Vec<u32> = (0..boxes.len() as u32)
             .filter(|&i| !boxes[i as usize].is_empty())
             .collect();
-        let prims: Vec<Item> = items
+        let prims: Vec<obvhs::aabb::Aabb> = items
             .iter()
-            .map(|&i| Item(boxes[i as usize].to_obvhs()))
+            .map(|&i| boxes[i as usize].to_obvhs())
             .collect();
         let bvh = if prims.is_empty() {
             Bvh2::default()
         } else {
-            build_bounded(
-                &prims.iter().map(|p| p.0).collect::<Vec<_>>(),
-                BvhBuildParams::fast_build(),
-            )
+            build_bounded(&prims, BvhBuildParams::fast_build())
         };
         BoxBvh {
             bvh,

@@ -74,7 +74,8 @@ impl AddressBook {
     }
 
     /// Slots held, over every address.
-    pub fn total(&self) -> usize {
+    #[cfg(test)]
+    fn total(&self) -> usize {
         self.open
             .lock()
             .unwrap_or_else(|p| p.into_inner())
