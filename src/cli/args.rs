@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand};
 use homcull_proto::{DebVariant, Method};
 
+use crate::core::engine::BackendChoice;
 use crate::core::occluders::OccluderParams;
 use crate::eval::loadgen::LoadConfig;
 use crate::eval::report::{ReportOptions, Section};
@@ -50,6 +51,20 @@ pub struct SceneArg {
     pub demo: bool,
 }
 
+/// Which backend culls, and on how many CPU threads (`serve`, `cull`, `eval`, `report`).
+#[derive(Debug, Clone, Args)]
+pub struct BackendArgs {
+    /// auto (a hardware GPU if there is one, else the native CPU backend), gpu (any
+    /// wgpu adapter, software Vulkan included; none is an error) or cpu (native).
+    /// `HOMCULL_REQUIRE_GPU=1` makes auto mean gpu.
+    #[arg(long, env = "HOMCULL_BACKEND", default_value = "auto")]
+    pub backend: BackendChoice,
+    /// Threads for the CPU work (planning, and the culling itself on the native
+    /// backend); 0 = one per core.
+    #[arg(long, env = "HOMCULL_THREADS", default_value_t = 0)]
+    pub threads: usize,
+}
+
 /// Culling parameters shared by `cull` and `eval`.
 #[derive(Debug, Clone, Args)]
 pub struct CullParams {
@@ -80,6 +95,8 @@ impl CullParams {
 #[derive(Debug, Args)]
 pub struct CullArgs {
     #[command(flatten)]
+    pub backend: BackendArgs,
+    #[command(flatten)]
     pub scene: SceneArg,
     /// The pose as JSON (the wire format of `POST /cull`), e.g. '{"position":[0,1.7,0],"look_at":[10,1.7,0]}'.
     #[arg(long)]
@@ -93,6 +110,8 @@ pub struct CullArgs {
 
 #[derive(Debug, Args)]
 pub struct EvalArgs {
+    #[command(flatten)]
+    pub backend: BackendArgs,
     #[command(flatten)]
     pub scene: SceneArg,
     /// Sample N random poses where a person would stand.
@@ -141,6 +160,8 @@ pub fn parse_viewport(s: &str) -> Result<[u32; 2], String> {
 /// `homcull serve`: every limit is a flag and a `HOMCULL_*` variable.
 #[derive(Debug, Clone, Args)]
 pub struct ServeArgs {
+    #[command(flatten)]
+    pub backend: BackendArgs,
     /// Address to listen on.
     #[arg(long, env = "HOMCULL_ADDR", default_value = "127.0.0.1:8080")]
     pub addr: std::net::SocketAddr,
@@ -336,6 +357,8 @@ pub struct LoadgenArgs {
 /// `homcull report`: the evaluation and scaling report.
 #[derive(Debug, Clone, Args)]
 pub struct ReportArgs {
+    #[command(flatten)]
+    pub backend: BackendArgs,
     /// Where report.md and the plots go (created if missing).
     #[arg(long)]
     pub out: PathBuf,

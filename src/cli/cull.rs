@@ -22,7 +22,7 @@ pub fn run(a: CullArgs) -> Result<()> {
     let mut resident = ResidentScene::assemble(
         scene,
         Residency::evaluation(a.params.occluder_params()),
-        open_backend()?,
+        open_backend(&a.backend)?,
     );
     let settings = resident.engine.settings(options);
     let r = resident

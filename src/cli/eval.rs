@@ -24,7 +24,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
     let mut resident = ResidentScene::assemble(
         scene,
         Residency::evaluation(a.params.occluder_params()),
-        open_backend()?,
+        open_backend(&a.backend)?,
     );
     let poses: Vec<Pose> = match (&a.random, &a.poses_file) {
         (Some(n), None) => {

@@ -14,7 +14,9 @@ use clap::Parser;
 
 use crate::core::engine::Backend;
 use crate::core::scene::{Scene, demo_city, load_path};
-use args::{Cli, Command, HealthcheckArgs, LoadgenArgs, ReportArgs, SceneArg, ServeArgs};
+use args::{
+    BackendArgs, Cli, Command, HealthcheckArgs, LoadgenArgs, ReportArgs, SceneArg, ServeArgs,
+};
 
 /// Parses the command line and runs the subcommand (`serve` when none is given).
 pub fn run() -> Result<()> {
@@ -29,12 +31,17 @@ pub fn run() -> Result<()> {
     }
 }
 
-/// The backend every subcommand culls with, with a warning on the slow fallback.
-pub fn open_backend() -> Result<Backend> {
-    let backend = Backend::open()?;
-    if backend.gpu().is_none() {
-        eprintln!("warning: no GPU adapter; using the CPU reference implementation (slow)");
+/// The backend a subcommand culls with, on a rayon pool of `--threads` threads.
+pub fn open_backend(a: &BackendArgs) -> Result<Backend> {
+    if a.threads > 0 {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(a.threads)
+            .build_global()
+            .context("starting the CPU thread pool")?;
     }
+    let backend =
+        Backend::open(a.backend).with_context(|| format!("opening the `{}` backend", a.backend))?;
+    eprintln!("backend: {} ({})", backend.name(), backend.describe());
     Ok(backend)
 }
 
@@ -87,5 +94,5 @@ fn loadgen(a: LoadgenArgs) -> Result<()> {
 }
 
 fn report(a: ReportArgs) -> Result<()> {
-    crate::eval::report::run(&a.options(), open_backend()?)
+    crate::eval::report::run(&a.options(), open_backend(&a.backend)?)
 }

@@ -3,15 +3,14 @@
 use anyhow::{Context, Result};
 
 use super::args::ServeArgs;
-use crate::core::engine::Backend;
 
 pub fn run(a: ServeArgs) -> Result<()> {
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
         .context("starting the async runtime")?;
+    let backend = super::open_backend(&a.backend)?;
     rt.block_on(async move {
-        let backend = Backend::open()?;
         let listener = tokio::net::TcpListener::bind(a.addr)
             .await
             .with_context(|| format!("listening on {}", a.addr))?;

@@ -1,9 +1,13 @@
 //! A resident scene ready to cull: prepared structures plus the backend that runs them.
 //!
-//! [`Backend`] is the choice made once per process (the GPU when an adapter exists,
-//! else the CPU reference, with a warning; `HOMCULL_REQUIRE_GPU=1` turns a missing
-//! adapter into an error: see [`crate::core::gpu::open_gpu`]). Every scene's
-//! [`Engine`] builds its own [`Culler`] from it.
+//! [`Backend`] is the choice made once per process from a [`BackendChoice`]
+//! (`--backend`, `HOMCULL_BACKEND`): `gpu` opens an adapter (software ones count) or
+//! fails; `cpu` runs the native CPU backend (`core::native`); `auto` takes a hardware
+//! adapter if one opens and the native CPU backend otherwise, and a software Vulkan
+//! adapter (lavapipe) only when asked for: `--backend gpu`, or
+//! `HOMCULL_REQUIRE_GPU=1`, which makes `auto` mean `gpu`. The CPU reference
+//! (`core::hom`) is a backend for tests, never chosen by these. Every scene's
+//! [`Engine`] builds its own [`Culler`] from the choice.
 
 use std::sync::Arc;
 
@@ -11,31 +15,101 @@ use homcull_proto::CullOptions;
 
 use crate::core::camera::Camera;
 use crate::core::cull::{CullError, CullSettings, Culler, PassTimes, PoseResult, PreparedScene};
-use crate::core::gpu::{GpuBackend, GpuContext, GpuError, open_gpu};
+use crate::core::gpu::{GpuBackend, GpuContext, GpuError, require_gpu};
 use crate::core::hom::ReferenceBackend;
+use crate::core::native::NativeBackend;
 use crate::core::occluders::OccluderParams;
 use crate::core::scene::Scene;
+
+/// The backend a process asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BackendChoice {
+    /// A hardware GPU if there is one, else the native CPU backend.
+    #[default]
+    Auto,
+    /// A wgpu adapter, software ones included; none is an error.
+    Gpu,
+    /// The native CPU backend.
+    Cpu,
+}
+
+impl std::str::FromStr for BackendChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(BackendChoice::Auto),
+            "gpu" => Ok(BackendChoice::Gpu),
+            "cpu" => Ok(BackendChoice::Cpu),
+            _ => Err(format!("unknown backend `{s}` (auto, gpu or cpu)")),
+        }
+    }
+}
+
+impl std::fmt::Display for BackendChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            BackendChoice::Auto => "auto",
+            BackendChoice::Gpu => "gpu",
+            BackendChoice::Cpu => "cpu",
+        })
+    }
+}
 
 /// Which backend culls: chosen once, shared by every scene.
 #[derive(Clone)]
 pub enum Backend {
     /// The wgpu backend on an opened device.
     Gpu(Arc<GpuContext>),
-    /// The CPU reference of every pass (slow: the fallback without an adapter).
+    /// The native CPU backend (span rasterizer, tile bounds, rayon over poses).
+    Native,
+    /// The CPU reference of every pass (slow: the test oracle, not a serving path).
     Reference,
 }
 
 impl Backend {
-    /// The GPU if one exists, else the CPU reference (an error instead with
-    /// `HOMCULL_REQUIRE_GPU=1`).
-    pub fn open() -> Result<Self, GpuError> {
-        Ok(open_gpu()?.map(Arc::new).into())
+    /// The backend `choice` asks for (see the module docs).
+    pub fn open(choice: BackendChoice) -> Result<Self, GpuError> {
+        let choice = match choice {
+            BackendChoice::Auto if require_gpu() => BackendChoice::Gpu,
+            c => c,
+        };
+        match choice {
+            BackendChoice::Gpu => Ok(Backend::Gpu(Arc::new(GpuContext::new()?))),
+            BackendChoice::Cpu => Ok(Backend::Native),
+            BackendChoice::Auto => match GpuContext::new() {
+                Ok(ctx) if ctx.info.device_type != wgpu::DeviceType::Cpu => {
+                    Ok(Backend::Gpu(Arc::new(ctx)))
+                }
+                Ok(ctx) => {
+                    tracing::info!(
+                        "{} is a software adapter; culling on the native CPU backend \
+                         (`--backend gpu` to use it)",
+                        ctx.info.name
+                    );
+                    Ok(Backend::Native)
+                }
+                Err(e) => {
+                    tracing::info!("{e}; culling on the native CPU backend");
+                    Ok(Backend::Native)
+                }
+            },
+        }
     }
 
-    /// The adapter (or the CPU reference) in words.
+    /// The backend's short name: `gpu`, `cpu` (native) or `reference`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Backend::Gpu(_) => "gpu",
+            Backend::Native => "cpu",
+            Backend::Reference => "reference",
+        }
+    }
+
+    /// The adapter (or CPU implementation) in words.
     pub fn describe(&self) -> String {
         match self {
             Backend::Gpu(ctx) => ctx.describe(),
+            Backend::Native => NativeBackend.describe(),
             Backend::Reference => ReferenceBackend.describe(),
         }
     }
@@ -44,13 +118,14 @@ impl Backend {
     pub fn gpu(&self) -> Option<&Arc<GpuContext>> {
         match self {
             Backend::Gpu(ctx) => Some(ctx),
-            Backend::Reference => None,
+            _ => None,
         }
     }
 
     fn culler(&self, prepared: &PreparedScene) -> Box<dyn Culler + Send> {
         match self {
             Backend::Gpu(ctx) => Box::new(GpuBackend::new(ctx.clone(), prepared)),
+            Backend::Native => Box::new(NativeBackend),
             Backend::Reference => Box::new(ReferenceBackend),
         }
     }
@@ -66,7 +141,7 @@ pub struct Engine {
     /// Shared so that read-only work (the pyramid debug view) runs beside the worker.
     pub prepared: Arc<PreparedScene>,
     backend: Box<dyn Culler + Send>,
-    /// True when no GPU was available and the CPU reference runs.
+    /// True when the slow CPU reference runs.
     pub cpu_fallback: bool,
 }
 

@@ -10,6 +10,8 @@
 //!   settings, the per-pose plan, pass times and errors.
 //! - [`hom`]: the CPU reference backend, the algorithm pass by pass; every GPU pass's
 //!   twin and test oracle.
+//! - [`native`]: the native CPU backend, the same algorithm as spans and tile bounds,
+//!   fast enough to serve from CPU cores.
 //! - [`gpu`]: the wgpu backend, the same passes batched on a device.
 //! - [`engine`], [`resident`]: a prepared scene with its backend, and the one place a
 //!   resident scene (engine, PVS, walk start, object table) is assembled.
@@ -23,6 +25,7 @@ pub mod engine;
 pub mod geom;
 pub mod gpu;
 pub mod hom;
+pub mod native;
 pub mod occluders;
 pub mod pvs;
 pub mod resident;

@@ -9,62 +9,107 @@
 //!
 //! Used for the occlusion map (nearest depth per pixel) and the exact oracle (ID of the
 //! nearest triangle per pixel), so the CPU HOM and the CPU oracle agree on coverage
-//! exactly as the GPU's two passes do.
+//! exactly as the GPU's two passes do. The setup ([`screen_polygon`],
+//! [`ScreenTriangle`]) is shared with the native backend (`core::native`), whose span
+//! rasterizer decides coverage with the very same edge functions.
 
 use glam::{Vec3, Vec4};
 
 use crate::core::camera::Camera;
 
-#[derive(Clone, Copy)]
-struct ScreenVertex {
-    x: f64,
-    y: f64,
-    inv_w: f64,
+/// A clipped vertex in screen space (pixels, y down) with its clip-space `1/w`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ScreenVertex {
+    pub x: f64,
+    pub y: f64,
+    pub inv_w: f64,
 }
 
-fn clip_polygon(poly: &mut Vec<Vec4>, scratch: &mut Vec<Vec4>, dist: impl Fn(Vec4) -> f32) {
-    scratch.clear();
-    for i in 0..poly.len() {
-        let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+/// Most vertices a triangle has after clipping against two planes.
+const MAX_CLIPPED: usize = 8;
+
+/// A triangle clipped against the near and far planes and projected to the screen: a
+/// convex polygon, drawn as the fan `(v[0], v[i], v[i+1])`.
+pub struct ScreenPolygon {
+    pub v: [ScreenVertex; MAX_CLIPPED],
+    pub len: usize,
+}
+
+impl ScreenPolygon {
+    /// The fan's triangles.
+    pub fn fan(&self) -> impl Iterator<Item = [ScreenVertex; 3]> + '_ {
+        (1..self.len.saturating_sub(1)).map(|i| [self.v[0], self.v[i], self.v[i + 1]])
+    }
+}
+
+fn clip_polygon(
+    poly: &[Vec4; MAX_CLIPPED],
+    len: usize,
+    out: &mut [Vec4; MAX_CLIPPED],
+    dist: impl Fn(Vec4) -> f32,
+) -> usize {
+    let mut n = 0;
+    for i in 0..len {
+        let (a, b) = (poly[i], poly[if i + 1 == len { 0 } else { i + 1 }]);
         let (da, db) = (dist(a), dist(b));
         if da >= 0.0 {
-            scratch.push(a);
+            out[n] = a;
+            n += 1;
         }
         if (da >= 0.0) != (db >= 0.0) {
             let t = da / (da - db);
-            scratch.push(a + (b - a) * t);
+            out[n] = a + (b - a) * t;
+            n += 1;
         }
     }
-    std::mem::swap(poly, scratch);
+    n
+}
+
+/// Clips a world-space triangle against the near and far planes and projects it.
+#[inline]
+pub fn screen_polygon(cam: &Camera, tri: [Vec3; 3]) -> ScreenPolygon {
+    let mut a = [Vec4::ZERO; MAX_CLIPPED];
+    let mut b = [Vec4::ZERO; MAX_CLIPPED];
+    for (k, p) in tri.iter().enumerate() {
+        a[k] = cam.view_proj * p.extend(1.0);
+    }
+    // Clipping a triangle with every corner inside both planes gives it back unchanged.
+    let inside = |c: Vec4| c.w - c.z >= 0.0 && c.z >= 0.0;
+    let n = if inside(a[0]) && inside(a[1]) && inside(a[2]) {
+        3
+    } else {
+        let n = clip_polygon(&a, 3, &mut b, |c| c.w - c.z);
+        clip_polygon(&b, n, &mut a, |c| c.z)
+    };
+    let (w, h) = (cam.width as f64, cam.height as f64);
+    let mut out = ScreenPolygon {
+        v: [ScreenVertex::default(); MAX_CLIPPED],
+        len: if n < 3 { 0 } else { n },
+    };
+    for (v, c) in out.v.iter_mut().zip(a).take(out.len) {
+        let iw = 1.0 / c.w as f64;
+        *v = ScreenVertex {
+            x: (c.x as f64 * iw * 0.5 + 0.5) * w,
+            y: (0.5 - c.y as f64 * iw * 0.5) * h,
+            inv_w: iw,
+        };
+    }
+    out
 }
 
 /// Calls `plot(x, y, view_depth)` for every pixel whose centre the triangle covers.
 pub fn raster_triangle(cam: &Camera, tri: [Vec3; 3], mut plot: impl FnMut(u32, u32, f32)) {
-    let mut poly: Vec<Vec4> = tri.iter().map(|p| cam.view_proj * p.extend(1.0)).collect();
-    let mut scratch = Vec::with_capacity(8);
-    clip_polygon(&mut poly, &mut scratch, |c| c.w - c.z);
-    clip_polygon(&mut poly, &mut scratch, |c| c.z);
-    if poly.len() < 3 {
-        return;
-    }
-    let (w, h) = (cam.width as f64, cam.height as f64);
-    let sv: Vec<ScreenVertex> = poly
-        .iter()
-        .map(|c| {
-            let iw = 1.0 / c.w as f64;
-            ScreenVertex {
-                x: (c.x as f64 * iw * 0.5 + 0.5) * w,
-                y: (0.5 - c.y as f64 * iw * 0.5) * h,
-                inv_w: iw,
-            }
-        })
-        .collect();
-    for i in 1..sv.len() - 1 {
-        raster_screen_triangle(cam.width, cam.height, [sv[0], sv[i], sv[i + 1]], &mut plot);
+    for t in screen_polygon(cam, tri).fan() {
+        if let Some(t) = ScreenTriangle::new(cam.width, cam.height, t) {
+            t.raster(&mut plot);
+        }
     }
 }
 
-fn edge(a: ScreenVertex, b: ScreenVertex, px: f64, py: f64) -> f64 {
+/// The edge function of `a → b` at `(px, py)`: positive on the inner side of a
+/// counter-clockwise (in y-down screen space, clockwise on screen) triangle.
+#[inline]
+pub fn edge(a: ScreenVertex, b: ScreenVertex, px: f64, py: f64) -> f64 {
     (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x)
 }
 
@@ -74,47 +119,91 @@ fn owns_edge(a: ScreenVertex, b: ScreenVertex) -> bool {
     (dy == 0.0 && dx > 0.0) || dy < 0.0
 }
 
-fn raster_screen_triangle(
-    width: u32,
-    height: u32,
-    mut v: [ScreenVertex; 3],
-    plot: &mut impl FnMut(u32, u32, f32),
-) {
-    let mut area = edge(v[0], v[1], v[2].x, v[2].y);
-    if area == 0.0 || !area.is_finite() {
-        return;
+/// A screen triangle of positive area, set up for coverage tests: vertices ordered so
+/// that the area is positive, the top-left ownership of each edge, and the range of
+/// pixels its bounding box reaches inside the viewport.
+#[derive(Clone, Copy, Debug)]
+pub struct ScreenTriangle {
+    pub v: [ScreenVertex; 3],
+    pub area: f64,
+    /// Whether edge k (opposite vertex k: `v[k+1] → v[k+2]`) owns its pixel centres.
+    pub owns: [bool; 3],
+    /// Inclusive pixel range of the bounding box, clamped to the viewport.
+    pub x0: u32,
+    pub x1: u32,
+    pub y0: u32,
+    pub y1: u32,
+}
+
+impl ScreenTriangle {
+    /// None for degenerate triangles and those whose box misses every pixel centre.
+    pub fn new(width: u32, height: u32, mut v: [ScreenVertex; 3]) -> Option<Self> {
+        let mut area = edge(v[0], v[1], v[2].x, v[2].y);
+        if area == 0.0 || !area.is_finite() {
+            return None;
+        }
+        if area < 0.0 {
+            v.swap(1, 2);
+            area = -area;
+        }
+        let min_x = v.iter().map(|p| p.x).fold(f64::INFINITY, f64::min);
+        let max_x = v.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
+        let min_y = v.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
+        let max_y = v.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max);
+        let x0 = (min_x - 0.5).ceil().max(0.0);
+        let x1 = (max_x - 0.5).floor().min(width as f64 - 1.0);
+        let y0 = (min_y - 0.5).ceil().max(0.0);
+        let y1 = (max_y - 0.5).floor().min(height as f64 - 1.0);
+        if x0 > x1 || y0 > y1 {
+            return None;
+        }
+        Some(ScreenTriangle {
+            owns: [
+                owns_edge(v[1], v[2]),
+                owns_edge(v[2], v[0]),
+                owns_edge(v[0], v[1]),
+            ],
+            v,
+            area,
+            x0: x0 as u32,
+            x1: x1 as u32,
+            y0: y0 as u32,
+            y1: y1 as u32,
+        })
     }
-    if area < 0.0 {
-        v.swap(1, 2);
-        area = -area;
+
+    /// The three edge functions at a point.
+    #[inline]
+    pub fn edges(&self, px: f64, py: f64) -> [f64; 3] {
+        let v = &self.v;
+        [
+            edge(v[1], v[2], px, py),
+            edge(v[2], v[0], px, py),
+            edge(v[0], v[1], px, py),
+        ]
     }
-    let min_x = v.iter().map(|p| p.x).fold(f64::INFINITY, f64::min);
-    let max_x = v.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
-    let min_y = v.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
-    let max_y = v.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max);
-    let x0 = (min_x - 0.5).ceil().max(0.0);
-    let x1 = (max_x - 0.5).floor().min(width as f64 - 1.0);
-    let y0 = (min_y - 0.5).ceil().max(0.0);
-    let y1 = (max_y - 0.5).floor().min(height as f64 - 1.0);
-    if x0 > x1 || y0 > y1 {
-        return;
+
+    /// Whether edge `k`'s value `e` puts a pixel centre inside (top-left rule on ties).
+    #[inline]
+    pub fn inside_edge(&self, k: usize, e: f64) -> bool {
+        e > 0.0 || (e == 0.0 && self.owns[k])
     }
-    let owns = [
-        owns_edge(v[1], v[2]),
-        owns_edge(v[2], v[0]),
-        owns_edge(v[0], v[1]),
-    ];
-    let inside = |e: f64, own: bool| e > 0.0 || (e == 0.0 && own);
-    for y in y0 as u32..=y1 as u32 {
-        let py = y as f64 + 0.5;
-        for x in x0 as u32..=x1 as u32 {
-            let px = x as f64 + 0.5;
-            let e0 = edge(v[1], v[2], px, py);
-            let e1 = edge(v[2], v[0], px, py);
-            let e2 = edge(v[0], v[1], px, py);
-            if inside(e0, owns[0]) && inside(e1, owns[1]) && inside(e2, owns[2]) {
-                let inv_w = (e0 * v[0].inv_w + e1 * v[1].inv_w + e2 * v[2].inv_w) / area;
-                plot(x, y, (1.0 / inv_w) as f32);
+
+    /// Clip-space `1/w` at a point with edge values `e`, interpolated perspective-correctly.
+    #[inline]
+    pub fn inv_w(&self, e: [f64; 3]) -> f64 {
+        (e[0] * self.v[0].inv_w + e[1] * self.v[1].inv_w + e[2] * self.v[2].inv_w) / self.area
+    }
+
+    /// Calls `plot(x, y, view_depth)` for every covered pixel centre.
+    fn raster(&self, plot: &mut impl FnMut(u32, u32, f32)) {
+        for y in self.y0..=self.y1 {
+            let py = y as f64 + 0.5;
+            for x in self.x0..=self.x1 {
+                let e = self.edges(x as f64 + 0.5, py);
+                if (0..3).all(|k| self.inside_edge(k, e[k])) {
+                    plot(x, y, (1.0 / self.inv_w(e)) as f32);
+                }
             }
         }
     }

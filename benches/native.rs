@@ -1,0 +1,182 @@
+//! The native CPU backend, pass by pass, on the shared real scenes (divan; one thread).
+//! Run: `cargo bench --bench native`. Scenes come from `HOMCULL_SCENES` (default
+//! `../shared/scenes`); 32 sampled street-level poses per scene at 960×540, the poses
+//! `homcull eval --random 32` would use (seed 1).
+//!
+//! - `plan`: frustum query, test boxes, occluder selection (shared with every backend).
+//! - `draw`: the occluders' front faces into the occlusion map.
+//! - `bounds`: the tile-bounds pyramid over the map.
+//! - `box_test`: the box test of every in-frustum test box (per box: compare with
+//!   MOC's 40–90 ns per object test).
+//! - `pose`: the whole query (plan, draw, bounds, box test, refinement), what a
+//!   client waits for, beside `exact` (the ID-buffer oracle on the same spans).
+
+use std::sync::OnceLock;
+
+use divan::Bencher;
+use homcull::core::camera::Camera;
+use homcull::core::cull::{CullSettings, PosePlan, PreparedScene, plan};
+use homcull::core::hom::triangles_of;
+use homcull::core::native::NativeBackend;
+use homcull::core::native::map::{OcclusionMap, front_facing};
+use homcull::core::occluders::OccluderParams;
+use homcull::core::sampler::PoseSampler;
+use homcull::core::scene::load_path;
+use homcull_proto::{CullOptions, DebVariant, Method};
+
+const SCENES: &[&str] = &["munich", "etoile", "oa_shouse", "oa_dm1"];
+const POSES: usize = 32;
+
+fn main() {
+    // One thread: the figures are per core.
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build_global()
+        .expect("a one-thread pool");
+    divan::main();
+}
+
+struct Bench {
+    prep: PreparedScene,
+    cams: Vec<Camera>,
+}
+
+fn scene(name: &str) -> &'static Bench {
+    static ALL: OnceLock<Vec<(String, Bench)>> = OnceLock::new();
+    let all = ALL.get_or_init(|| {
+        let dir = std::env::var("HOMCULL_SCENES").unwrap_or_else(|_| "../shared/scenes".into());
+        SCENES
+            .iter()
+            .map(|&n| {
+                let path = std::path::Path::new(&dir).join(format!("{n}.glb"));
+                let scene = load_path(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                let sampled = PoseSampler::new(&scene).sample(POSES, 1, [960, 540], &|_| true);
+                let cams = sampled
+                    .poses
+                    .iter()
+                    .map(|p| Camera::new(p).unwrap())
+                    .collect();
+                let prep = PreparedScene::new(scene, OccluderParams::default());
+                (n.to_string(), Bench { prep, cams })
+            })
+            .collect()
+    });
+    &all.iter()
+        .find(|(n, _)| n == name)
+        .expect("a benchmarked scene")
+        .1
+}
+
+fn settings(b: &Bench, method: Method) -> CullSettings {
+    CullSettings::new(
+        CullOptions {
+            method,
+            threshold: 1.0,
+            deb: DebVariant::Raster,
+            refine: true,
+        },
+        &b.prep,
+    )
+}
+
+fn plans(b: &Bench, method: Method) -> Vec<PosePlan> {
+    let s = settings(b, method);
+    b.cams.iter().map(|c| plan(&b.prep, c, &s)).collect()
+}
+
+#[divan::bench(args = SCENES)]
+fn plan_per_pose(bencher: Bencher, name: &str) {
+    let b = scene(name);
+    let s = settings(b, Method::Hom);
+    bencher
+        .counter(divan::counter::ItemsCount::new(b.cams.len()))
+        .bench(|| {
+            b.cams
+                .iter()
+                .map(|c| plan(&b.prep, c, &s).candidates.len())
+                .sum::<usize>()
+        });
+}
+
+fn draw(map: &mut OcclusionMap, b: &Bench, p: &PosePlan) {
+    map.reset(p.cam.width, p.cam.height);
+    let eye = p.cam.position;
+    map.draw(
+        &p.cam,
+        triangles_of(&b.prep.scene, &p.occluders.ids)
+            .map(|(_, t)| t)
+            .filter(|t| front_facing(eye, t)),
+    );
+}
+
+#[divan::bench(args = SCENES)]
+fn draw_per_pose(bencher: Bencher, name: &str) {
+    let b = scene(name);
+    let plans = plans(b, Method::Hom);
+    let mut map = OcclusionMap::default();
+    bencher
+        .counter(divan::counter::ItemsCount::new(plans.len()))
+        .bench_local(|| {
+            for p in &plans {
+                draw(&mut map, b, p);
+            }
+        });
+}
+
+#[divan::bench(args = SCENES)]
+fn bounds_per_pose(bencher: Bencher, name: &str) {
+    let b = scene(name);
+    let plans = plans(b, Method::Hom);
+    let mut map = OcclusionMap::default();
+    draw(&mut map, b, &plans[0]);
+    bencher.bench_local(|| map.build_bounds());
+}
+
+#[divan::bench(args = SCENES)]
+fn box_test_per_box(bencher: Bencher, name: &str) {
+    let b = scene(name);
+    let plans = plans(b, Method::Hom);
+    let s = settings(b, Method::Hom);
+    let maps: Vec<OcclusionMap> = plans
+        .iter()
+        .map(|p| {
+            let mut m = OcclusionMap::default();
+            draw(&mut m, b, p);
+            m.build_bounds();
+            m
+        })
+        .collect();
+    let boxes: usize = plans.iter().map(|p| p.test_boxes.len()).sum();
+    bencher
+        .counter(divan::counter::ItemsCount::new(boxes))
+        .bench_local(|| {
+            plans
+                .iter()
+                .zip(&maps)
+                .map(|(p, m)| NativeBackend::test_boxes(m, &b.prep, p, &s)[0])
+                .sum::<u32>()
+        });
+}
+
+#[divan::bench(args = SCENES)]
+fn pose_hom_refined(bencher: Bencher, name: &str) {
+    whole_pose(bencher, name, Method::Hom);
+}
+
+#[divan::bench(args = SCENES)]
+fn pose_exact(bencher: Bencher, name: &str) {
+    whole_pose(bencher, name, Method::Exact);
+}
+
+fn whole_pose(bencher: Bencher, name: &str, method: Method) {
+    let b = scene(name);
+    let s = settings(b, method);
+    bencher
+        .counter(divan::counter::ItemsCount::new(b.cams.len()))
+        .bench_local(|| {
+            b.cams
+                .iter()
+                .map(|c| NativeBackend::pose_mask(&b.prep, &plan(&b.prep, c, &s), &s)[0])
+                .sum::<u32>()
+        });
+}

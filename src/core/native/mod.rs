@@ -1,0 +1,187 @@
+//! The native CPU backend: HOM as a span rasterizer and a tile-bounds pyramid, fast
+//! enough to serve from the CPU cores alone.
+//!
+//! Per pose ([`NativeBackend::pose_mask`]): the selected occluders are drawn into an
+//! occlusion map of the nearest `1/w` per pixel ([`map`]), in exact spans per row
+//! ([`span`]); the map is bounded per 8×8 tile and up a quadtree; each in-frustum
+//! test box's screen rect is tested against it, and the objects whose boxes survive
+//! are re-tested per pixel of their own triangles ([`refine`]). `exact` is the same
+//! spans into an ID buffer. The poses of a batch run in parallel on rayon's pool
+//! (`--threads`), each on a map kept per thread.
+//!
+//! Why it never culls what the oracle sees:
+//! 1. Coverage is the exact oracle's own: [`span::row_span`] accepts exactly the pixel
+//!    centres that the reference rasterizer's f64 edge functions and top-left rule
+//!    accept (the CPU oracle twin, `hom::oracle`), shown in its tests on random
+//!    triangles. Occluders are objects' own triangles, so a covered pixel of the map
+//!    is a pixel the oracle covers with one of those triangles.
+//! 2. The box test culls a box only if every pixel of its screen rect holds an
+//!    occluder nearer than the box's nearest depth by the margin
+//!    (`cull::deb::in_front`): the per-pixel statement of HOM's conservative test at
+//!    opacity 1, answered exactly by the tile bounds ([`map::OcclusionMap::rect_hidden`]).
+//! 3. The refinement culls an object only if each of its fragments lies behind the
+//!    map by the margin. The oracle gives a pixel to an object only if none of the
+//!    fragments there is nearer, and the map holds a subset of those fragments, so a
+//!    pixel the oracle gives to the object fails the comparison unless depths differ
+//!    between the two computations by more than the margin (1e-4 relative); both
+//!    interpolate `1/w` from the same f64 setup, within ~1e-6.
+//!
+//! What it does not do natively: approximate thresholds (below 1.0) and the `hzb`
+//! baseline, which need the averaged opacity pyramid; those build the reference
+//! pyramid from this backend's map and use the reference's test, so they are correct
+//! and as slow as the reference's test. The CPU reference (`core::hom`) stays the
+//! test oracle of every pass here.
+
+pub mod map;
+pub mod refine;
+pub mod span;
+
+use std::cell::RefCell;
+
+use homcull_proto::{DebVariant, Method};
+use rayon::prelude::*;
+
+use crate::core::cull::deb::DEPTH_MARGIN;
+use crate::core::cull::{
+    CullError, CullSettings, Culler, PosePlan, PreparedScene, empty_mask, has_bit, set_bit,
+};
+use crate::core::hom::{ReferenceBackend, pyramid, triangles_of};
+use map::OcclusionMap;
+use refine::IdBuffer;
+
+/// Per-thread buffers, kept from pose to pose (a 960×540 map is 2 MB).
+#[derive(Default)]
+struct Scratch {
+    map: OcclusionMap,
+    ids: IdBuffer,
+}
+
+thread_local! {
+    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
+}
+
+/// The native CPU backend.
+#[derive(Default)]
+pub struct NativeBackend;
+
+/// The widest SIMD this CPU runs the span kernels with.
+pub fn simd_level() -> &'static str {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        return "AVX2";
+    }
+    #[cfg(target_arch = "aarch64")]
+    return "NEON";
+    #[allow(unreachable_code)]
+    "SSE2"
+}
+
+impl NativeBackend {
+    /// The visibility bitmask of one planned pose.
+    pub fn pose_mask(prep: &PreparedScene, p: &PosePlan, s: &CullSettings) -> Vec<u32> {
+        SCRATCH.with_borrow_mut(|sc| match s.options.method {
+            Method::Exact => refine::exact(&mut sc.ids, &prep.scene, &p.cam, &p.candidates),
+            _ => Self::hom(&mut sc.map, prep, p, s),
+        })
+    }
+
+    fn hom(
+        map: &mut OcclusionMap,
+        prep: &PreparedScene,
+        p: &PosePlan,
+        s: &CullSettings,
+    ) -> Vec<u32> {
+        let scene = &prep.scene;
+        map.reset(p.cam.width, p.cam.height);
+        let eye = p.cam.position;
+        map.draw(
+            &p.cam,
+            triangles_of(scene, &p.occluders.ids)
+                .map(|(_, t)| t)
+                .filter(|t| map::front_facing(eye, t)),
+        );
+        let mut mask = if s.options.method == Method::Hzb || s.options.threshold < 1.0 {
+            Self::reference_test(map, p, s, prep)
+        } else {
+            map.build_bounds();
+            Self::test_boxes(map, prep, p, s)
+        };
+        if s.refines() {
+            for &c in &p.candidates {
+                if has_bit(&mask, c) && refine::hidden_per_pixel(map, scene, &p.cam, c) {
+                    crate::core::cull::clear_bit(&mut mask, c);
+                }
+            }
+        }
+        mask
+    }
+
+    /// The conservative box test (threshold 1) on the map's tile bounds.
+    pub fn test_boxes(
+        map: &OcclusionMap,
+        prep: &PreparedScene,
+        p: &PosePlan,
+        s: &CullSettings,
+    ) -> Vec<u32> {
+        let scene = &prep.scene;
+        let mut mask = empty_mask(scene.objects.len());
+        let raster = s.options.deb == DebVariant::Raster;
+        for &b in &p.test_boxes {
+            let tb = &scene.boxes[b as usize];
+            if has_bit(&mask, tb.object) {
+                continue; // another sub-bound of this object is already visible
+            }
+            let Some(r) = p.cam.project_box(&tb.aabb) else {
+                continue;
+            };
+            let hidden = if raster {
+                map.rect_hidden(&r, (1.0 + DEPTH_MARGIN) / r.near)
+            } else {
+                p.deb.all_in_front(&r, r.near) && map.rect_hidden(&r, 0.0)
+            };
+            if !hidden {
+                set_bit(&mut mask, tb.object);
+            }
+        }
+        mask
+    }
+
+    /// Approximate thresholds and HZB: the reference pyramid and test on this map.
+    fn reference_test(
+        map: &OcclusionMap,
+        p: &PosePlan,
+        s: &CullSettings,
+        prep: &PreparedScene,
+    ) -> Vec<u32> {
+        let depth: Vec<f32> = map
+            .inv_w
+            .iter()
+            .map(|&v| if v > 0.0 { 1.0 / v } else { 0.0 })
+            .collect();
+        let layout = pyramid::LevelLayout::new(p.cam.width, p.cam.height);
+        let (opacity, depth) = pyramid::build(&layout, &depth);
+        ReferenceBackend::test_boxes(&prep.scene, p, s, &layout, &opacity, &depth)
+    }
+}
+
+impl Culler for NativeBackend {
+    fn describe(&self) -> String {
+        format!(
+            "native CPU ({}, {} threads)",
+            simd_level(),
+            rayon::current_num_threads()
+        )
+    }
+
+    fn visibility(
+        &mut self,
+        prep: &PreparedScene,
+        plans: &[PosePlan],
+        s: &CullSettings,
+    ) -> Result<Vec<Vec<u32>>, CullError> {
+        Ok(plans
+            .par_iter()
+            .map(|p| Self::pose_mask(prep, p, s))
+            .collect())
+    }
+}

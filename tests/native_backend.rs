@@ -1,0 +1,265 @@
+//! The native CPU backend (`core::native`) against the exact oracle.
+//!
+//! - Random scenes (property test): zero false culls against the CPU oracle twin
+//!   (`hom::oracle`, the reference's exact-arithmetic ID buffer), for the refined
+//!   test and the box test alone with each DEB; the backend's own `exact` equals the
+//!   twin's.
+//! - Every shared scene and the demo city, sampled street-level poses at 960×540:
+//!   zero false culls against the CPU twin; against the GPU oracle where an adapter
+//!   exists, every object the GPU sees and this backend culls must be one the CPU
+//!   twin does not see either (a crack: the GPU snaps vertices to a fixed-point grid
+//!   and can leave a pixel uncovered between nearer triangles, see `real_scenes.rs`),
+//!   and such sightings stay bounded (munich 16, etoile 18 in 120 poses); refined
+//!   efficiency floors; kept ÷ oracle triangles bounds.
+
+mod common;
+
+use glam::Vec3;
+use homcull::core::camera::{Camera, look_at};
+use homcull::core::cull::{
+    CullSettings, Culler, PosePlan, PreparedScene, has_bit, plan, words_per_pose,
+};
+use homcull::core::geom::Aabb;
+use homcull::core::gpu::GpuBackend;
+use homcull::core::hom::ReferenceBackend;
+use homcull::core::native::NativeBackend;
+use homcull::core::occluders::OccluderParams;
+use homcull::core::pvs::Pvs;
+use homcull::core::sampler::PoseSampler;
+use homcull::core::scene::{Scene, SceneBuilder, demo_city, load_path};
+use homcull_proto::{CullOptions, DebVariant, Method};
+use proptest::prelude::*;
+
+fn settings(prep: &PreparedScene, method: Method, deb: DebVariant, refine: bool) -> CullSettings {
+    CullSettings::new(
+        CullOptions {
+            method,
+            threshold: 1.0,
+            deb,
+            refine,
+        },
+        prep,
+    )
+}
+
+/// Objects `mask` culls that `oracle` sees, over the candidates of each pose.
+fn false_culls(plans: &[PosePlan], mask: &[Vec<u32>], oracle: &[Vec<u32>]) -> Vec<(usize, u32)> {
+    let mut out = Vec::new();
+    for (k, p) in plans.iter().enumerate() {
+        for &c in &p.candidates {
+            if has_bit(&oracle[k], c) && !has_bit(&mask[k], c) {
+                out.push((k, c));
+            }
+        }
+    }
+    out
+}
+
+fn random_scene(boxes: &[(f32, f32, f32, f32, f32)]) -> Scene {
+    let mut b = SceneBuilder::default();
+    let g = [
+        Vec3::new(-60.0, 0.0, -60.0),
+        Vec3::new(60.0, 0.0, -60.0),
+        Vec3::new(60.0, 0.0, 60.0),
+        Vec3::new(-60.0, 0.0, 60.0),
+    ];
+    b.push("ground".into(), &g, &[0, 2, 1, 0, 3, 2], None);
+    for (i, &(x, z, sx, sy, sz)) in boxes.iter().enumerate() {
+        let (lo, hi) = (Vec3::new(x, 0.0, z), Vec3::new(x + sx, sy, z + sz));
+        let c: Vec<Vec3> = (0..8)
+            .map(|k| {
+                Vec3::new(
+                    if k & 1 == 0 { lo.x } else { hi.x },
+                    if k & 2 == 0 { lo.y } else { hi.y },
+                    if k & 4 == 0 { lo.z } else { hi.z },
+                )
+            })
+            .collect();
+        // Outward-facing (counter-clockwise seen from outside), as glTF front faces.
+        let idx = [
+            0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4,
+            6, 1, 3, 5, 3, 7, 5,
+        ];
+        b.push(format!("box{i}"), &c, &idx, None);
+    }
+    b.build("random")
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+
+    #[test]
+    fn native_never_culls_what_the_cpu_oracle_sees(
+        boxes in prop::collection::vec((-50.0f32..50.0, -50.0f32..50.0, 0.2f32..12.0, 0.2f32..20.0, 0.2f32..12.0), 5..60),
+        eye in (-40.0f32..40.0, 0.5f32..15.0, -40.0f32..40.0),
+        dir in (0.0f32..std::f32::consts::TAU, -0.5f32..0.3),
+    ) {
+        let prep = PreparedScene::new(random_scene(&boxes), OccluderParams { min_diagonal: 0.0, ..Default::default() });
+        let eye = Vec3::new(eye.0, eye.1, eye.2);
+        let cam = look_at(eye, eye + Vec3::new(dir.0.cos(), dir.1, dir.0.sin()), 192, 108);
+        let inside_a_box = prep.scene.objects.iter().any(|o| {
+            let m = Vec3::splat(cam.near * 2.0);
+            Aabb::new(o.aabb.min - m, o.aabb.max + m).contains(eye)
+        });
+        let exact = settings(&prep, Method::Exact, DebVariant::Raster, false);
+        let oracle_plans = [plan(&prep, &cam, &exact)];
+        let oracle = ReferenceBackend.visibility(&prep, &oracle_plans, &exact).unwrap();
+        let native_exact = NativeBackend.visibility(&prep, &oracle_plans, &exact).unwrap();
+        prop_assert_eq!(&native_exact, &oracle, "the native exact cull differs from the CPU oracle");
+        for (deb, refine) in [
+            (DebVariant::Raster, true),
+            (DebVariant::Raster, false),
+            (DebVariant::Tiles, false),
+            (DebVariant::Plane, false),
+        ] {
+            let s = settings(&prep, Method::Hom, deb, refine);
+            let plans = [plan(&prep, &cam, &s)];
+            let mask = NativeBackend.visibility(&prep, &plans, &s).unwrap();
+            let wrong = false_culls(&plans, &mask, &oracle);
+            prop_assert!(wrong.is_empty(), "{:?} refine {}: culled {:?}", deb, refine, wrong);
+            if deb == DebVariant::Raster && !refine && !inside_a_box {
+                // The native box test is the reference's conservative test answered
+                // exactly: the same answer, object for object. (From inside a box the
+                // reference draws that box's back faces, which the native leaves out.)
+                let reference = ReferenceBackend.visibility(&prep, &plans, &s).unwrap();
+                prop_assert_eq!(&mask, &reference, "box test differs from the reference");
+            }
+        }
+    }
+}
+
+/// Refined efficiency floors, set under what 120 poses measured against the CPU
+/// oracle (demo, munich 0.9995, etoile 0.9965, oa_shouse 0.9924, oa_dm1 0.9868,
+/// godot_room, fzk_haus).
+fn floor(scene: &str) -> f64 {
+    match scene {
+        "oa_dm1" => 0.98,
+        "godot_room" | "fzk_haus" => 0.98,
+        _ => 0.99,
+    }
+}
+
+/// Kept ÷ oracle triangles bounds, over what was measured (munich 1.003, etoile 1.020,
+/// oa_shouse 1.021, oa_dm1 1.044): what the refinement keeps of surfaces flush behind
+/// an occluder (its depth margin) weighs most in the maps.
+fn max_overdraw(scene: &str) -> f64 {
+    if scene.starts_with("oa_") { 1.06 } else { 1.03 }
+}
+
+const POSES: usize = 120;
+
+fn check(scene: Scene) {
+    let name = scene.name.clone();
+    let pvs = Pvs::from_scene(&scene).map(|r| r.expect("the scene's PVS parses"));
+    let accept = |p: Vec3| pvs.as_ref().is_none_or(|v| v.cluster_at(p) >= 0);
+    let sampled = PoseSampler::new(&scene).sample(POSES, 11, [960, 540], &accept);
+    assert_eq!(sampled.poses.len(), POSES, "{name}: too few poses");
+    let cams: Vec<Camera> = sampled
+        .poses
+        .iter()
+        .map(|p| Camera::new(p).unwrap())
+        .collect();
+    let prep = PreparedScene::new(scene, OccluderParams::default());
+    let hom = settings(&prep, Method::Hom, DebVariant::Raster, true);
+    let plans: Vec<PosePlan> = cams.iter().map(|c| plan(&prep, c, &hom)).collect();
+    let exact = settings(&prep, Method::Exact, DebVariant::Raster, false);
+    let oracle = ReferenceBackend.visibility(&prep, &plans, &exact).unwrap();
+    let native = NativeBackend.visibility(&prep, &plans, &hom).unwrap();
+    let wrong = false_culls(&plans, &native, &oracle);
+    assert!(
+        wrong.is_empty(),
+        "{name}: culled objects the CPU oracle sees: {wrong:?}"
+    );
+
+    // Efficiency and over-draw against the CPU oracle.
+    let scene = &prep.scene;
+    let (mut hidden, mut culled, mut kept_tris, mut oracle_tris) = (0u64, 0u64, 0u64, 0u64);
+    for (k, p) in plans.iter().enumerate() {
+        for &c in &p.candidates {
+            let tris = scene.objects[c as usize].index_count as u64 / 3;
+            let seen = has_bit(&oracle[k], c);
+            let kept = has_bit(&native[k], c);
+            hidden += !seen as u64;
+            culled += (!seen && !kept) as u64;
+            kept_tris += kept as u64 * tris;
+            oracle_tris += seen as u64 * tris;
+        }
+    }
+    let efficiency = culled as f64 / hidden.max(1) as f64;
+    let overdraw = kept_tris as f64 / oracle_tris.max(1) as f64;
+    eprintln!("{name}: refined efficiency {efficiency:.4}, kept/oracle triangles {overdraw:.4}");
+    assert!(
+        efficiency >= floor(&name),
+        "{name}: refined efficiency {efficiency:.4} below {}",
+        floor(&name)
+    );
+    assert!(
+        overdraw <= max_overdraw(&name),
+        "{name}: kept/oracle triangles {overdraw:.4}"
+    );
+
+    // Against the GPU oracle: only cracks.
+    let Some(gpu) = common::gpu() else { return };
+    let gpu_oracle = GpuBackend::new(gpu, &prep)
+        .visibility(&prep, &plans, &exact)
+        .unwrap();
+    assert_eq!(gpu_oracle[0].len(), words_per_pose(scene.objects.len()));
+    let gpu_only = false_culls(&plans, &native, &gpu_oracle);
+    for &(k, c) in &gpu_only {
+        assert!(
+            !has_bit(&oracle[k], c),
+            "{name}: pose {k} object {c}: the CPU oracle sees it too"
+        );
+    }
+    eprintln!(
+        "{name}: {} objects only the GPU oracle sees (through cracks), culled",
+        gpu_only.len()
+    );
+    assert!(
+        gpu_only.len() * 4 <= POSES,
+        "{name}: {} GPU-only sightings in {POSES} poses",
+        gpu_only.len()
+    );
+}
+
+fn shared(file: &str) {
+    let Some(dir) = common::scenes_dir() else {
+        return;
+    };
+    check(load_path(&dir.join(file)).expect("shared scene loads"));
+}
+
+#[test]
+fn demo_city_native() {
+    check(demo_city());
+}
+
+#[test]
+fn munich_native() {
+    shared("munich.glb");
+}
+
+#[test]
+fn etoile_native() {
+    shared("etoile.glb");
+}
+
+#[test]
+fn oa_shouse_native() {
+    shared("oa_shouse.glb");
+}
+
+#[test]
+fn oa_dm1_native() {
+    shared("oa_dm1.glb");
+}
+
+#[test]
+fn godot_room_native() {
+    shared("godot_room.glb");
+}
+
+#[test]
+fn fzk_haus_native() {
+    shared("fzk_haus.glb");
+}
