@@ -5,6 +5,7 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
+use crate::core::engine::Backend;
 use axum::Json;
 use axum::body::Bytes;
 use axum::extract::rejection::{BytesRejection, QueryRejection};
@@ -28,8 +29,8 @@ pub async fn healthz() -> Json<serde_json::Value> {
     Json(serde_json::json!({"status": "ok"}))
 }
 
-/// Readiness: scenes loaded, the adapter (or CPU fallback) ready, the GPU worker
-/// running.
+/// Readiness: scenes loaded, the backend ready (`backend`: `gpu`, `cpu` for the
+/// native CPU backend, `reference`; `adapter` in words), the worker running.
 #[utoipa::path(get, path = "/readyz", responses(
     (status = 200, description = "ready; names the adapter"),
     (status = 503, description = "starting, shutting down, or the GPU worker has stopped")))]
@@ -41,8 +42,8 @@ pub async fn readyz(State(state): State<AppState>) -> Response {
         "worker": if worker_running { "running" } else { "stopped" },
         "worker_restarts": state.worker.health.restarts(),
         "adapter": state.adapter,
-        "backend": state.backend.gpu().map_or("cpu".to_string(), |g| format!("{:?}", g.info.backend).to_lowercase()),
-        "cpu_fallback": state.backend.gpu().is_none(),
+        "backend": state.backend.name(),
+        "cpu_fallback": matches!(state.backend, Backend::Reference),
         "scenes": state.scene_list().len(),
     });
     let status = if ready {

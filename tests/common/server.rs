@@ -40,11 +40,19 @@ impl TestServer {
 
     /// Starts a server on the given data dir and waits until `/readyz` says ready.
     pub async fn start_in(data_dir: &Path, edit: impl FnOnce(&mut Config)) -> TestServer {
+        Self::start_on(Backend::from(super::gpu()), data_dir, edit).await
+    }
+
+    /// [`TestServer::start_in`] culling on `backend`.
+    pub async fn start_on(
+        backend: Backend,
+        data_dir: &Path,
+        edit: impl FnOnce(&mut Config),
+    ) -> TestServer {
         let mut cfg = config(data_dir);
         edit(&mut cfg);
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
         let addr = listener.local_addr().unwrap();
-        let backend = Backend::from(super::gpu());
         let adapter = backend.describe();
         let (stop, stopped) = oneshot::channel::<()>();
         let task = tokio::spawn(homcull::server::serve(listener, cfg, backend, async {

@@ -155,7 +155,7 @@ pub(super) fn cpu_name() -> String {
 pub(super) fn adapter_kind(backend: &Backend) -> (String, bool) {
     match backend.gpu() {
         Some(g) => (g.describe(), g.info.device_type == wgpu::DeviceType::Cpu),
-        None => ("CPU reference implementation (no GPU adapter)".into(), true),
+        None => (backend.describe(), true),
     }
 }
 
