@@ -4,7 +4,8 @@
 //! `homcull eval --random 32` would use (seed 1).
 //!
 //! - `plan`: frustum query, test boxes, occluder selection (shared with every backend).
-//! - `draw`: the occluders' front faces into the occlusion map.
+//! - `draw`: the occluders' front faces into the occlusion map (those already hidden
+//!   after the nearest quarter left out).
 //! - `bounds`: the tile-bounds pyramid over the map.
 //! - `box_test`: the box test of every in-frustum test box (per box: compare with
 //!   MOC's 40–90 ns per object test).
@@ -16,9 +17,8 @@ use std::sync::OnceLock;
 use divan::Bencher;
 use homcull::core::camera::Camera;
 use homcull::core::cull::{CullSettings, PosePlan, PreparedScene, plan};
-use homcull::core::hom::triangles_of;
 use homcull::core::native::NativeBackend;
-use homcull::core::native::map::{OcclusionMap, front_facing};
+use homcull::core::native::map::OcclusionMap;
 use homcull::core::occluders::OccluderParams;
 use homcull::core::sampler::PoseSampler;
 use homcull::core::scene::load_path;
@@ -100,13 +100,7 @@ fn plan_per_pose(bencher: Bencher, name: &str) {
 
 fn draw(map: &mut OcclusionMap, b: &Bench, p: &PosePlan) {
     map.reset(p.cam.width, p.cam.height);
-    let eye = p.cam.position;
-    map.draw(
-        &p.cam,
-        triangles_of(&b.prep.scene, &p.occluders.ids)
-            .map(|(_, t)| t)
-            .filter(|t| front_facing(eye, t)),
-    );
+    map.draw_occluders(&b.prep.scene, &p.cam, &p.occluders.ids);
 }
 
 #[divan::bench(args = SCENES)]

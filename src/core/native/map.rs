@@ -18,9 +18,16 @@ use glam::Vec3;
 
 use super::span::{LANES, Span, span_triangles};
 use crate::core::camera::{Camera, ScreenRect};
+use crate::core::cull::deb::DEPTH_MARGIN;
+use crate::core::scene::Scene;
 
 /// Side of the pyramid's finest texels, in pixels.
 pub const TILE: u32 = 8;
+
+/// [`OcclusionMap::draw_occluders`] bounds the map after the nearest 1/CHECKPOINT of
+/// the occluders (but at least [`MIN_BEFORE_CHECKPOINT`]).
+const CHECKPOINT: usize = 4;
+const MIN_BEFORE_CHECKPOINT: usize = 8;
 
 /// Most levels of the tile pyramid (a 2^20-pixel side).
 const MAX_LEVELS: usize = 18;
@@ -67,6 +74,43 @@ impl OcclusionMap {
         } else {
             self.inv_w.fill(0.0);
         }
+    }
+
+    /// Draws the front faces of occluders `ids` (nearest first), leaving out those
+    /// already hidden: after the nearest [`CHECKPOINT`] share of them the map is
+    /// bounded once, and each later occluder whose box that map already hides (the box
+    /// test, margin included) is skipped. Its fragments all lie behind what the map
+    /// holds there, which only grows nearer, so skipping it leaves the final map
+    /// exactly as drawing it would. Answers the number skipped; bound the map again
+    /// before testing against it.
+    pub fn draw_occluders(&mut self, scene: &Scene, cam: &Camera, ids: &[u32]) -> usize {
+        let eye = cam.position;
+        let front = |id: &u32| {
+            scene
+                .corners_of(&scene.objects[*id as usize])
+                .filter(move |t| front_facing(eye, t))
+        };
+        let first = ids
+            .len()
+            .div_ceil(CHECKPOINT)
+            .max(MIN_BEFORE_CHECKPOINT)
+            .min(ids.len());
+        self.draw(cam, ids[..first].iter().flat_map(front));
+        if first == ids.len() {
+            return 0;
+        }
+        self.build_bounds();
+        let mut skipped = 0;
+        let rest = ids[first..].iter().filter(|&&id| {
+            let hidden = cam
+                .project_box(&scene.objects[id as usize].aabb)
+                .is_none_or(|r| self.rect_hidden(&r, (1.0 + DEPTH_MARGIN) / r.near));
+            skipped += hidden as usize;
+            !hidden
+        });
+        let rest: Vec<u32> = rest.copied().collect();
+        self.draw(cam, rest.iter().flat_map(front));
+        skipped
     }
 
     /// Draws triangles into the map (the nearest fragment wins each pixel).

@@ -45,7 +45,7 @@ use crate::core::cull::deb::DEPTH_MARGIN;
 use crate::core::cull::{
     CullError, CullSettings, Culler, PosePlan, PreparedScene, empty_mask, has_bit, set_bit,
 };
-use crate::core::hom::{ReferenceBackend, pyramid, triangles_of};
+use crate::core::hom::{ReferenceBackend, pyramid};
 use map::OcclusionMap;
 use refine::IdBuffer;
 
@@ -93,13 +93,7 @@ impl NativeBackend {
     ) -> Vec<u32> {
         let scene = &prep.scene;
         map.reset(p.cam.width, p.cam.height);
-        let eye = p.cam.position;
-        map.draw(
-            &p.cam,
-            triangles_of(scene, &p.occluders.ids)
-                .map(|(_, t)| t)
-                .filter(|t| map::front_facing(eye, t)),
-        );
+        map.draw_occluders(scene, &p.cam, &p.occluders.ids);
         let mut mask = if s.options.method == Method::Hzb || s.options.threshold < 1.0 {
             Self::reference_test(map, p, s, prep)
         } else {
