@@ -10,10 +10,10 @@
 //! (`--threads`), each on a map kept per thread.
 //!
 //! Why it never culls what the oracle sees:
-//! 1. Coverage is the exact oracle's own: [`span::row_span`] accepts exactly the pixel
-//!    centres that the reference rasterizer's f64 edge functions and top-left rule
-//!    accept (the CPU oracle twin, `hom::oracle`), shown in its tests on random
-//!    triangles. Occluders are objects' own triangles, so a covered pixel of the map
+//! 1. Coverage is the exact oracle's own: [`span::SpanTriangle::row`] accepts exactly
+//!    the pixel centres that the reference rasterizer's f64 edge functions and
+//!    top-left rule accept (the CPU oracle twin, `hom::oracle`), shown in its tests on
+//!    random triangles. Occluders are objects' own triangles, so a covered pixel of the map
 //!    is a pixel the oracle covers with one of those triangles.
 //! 2. The box test culls a box only if every pixel of its screen rect holds an
 //!    occluder nearer than the box's nearest depth by the margin
