@@ -141,8 +141,6 @@ pub struct Engine {
     /// Shared so that read-only work (the pyramid debug view) runs beside the worker.
     pub prepared: Arc<PreparedScene>,
     backend: Box<dyn Culler + Send>,
-    /// True when the slow CPU reference runs.
-    pub cpu_fallback: bool,
 }
 
 impl Engine {
@@ -155,7 +153,6 @@ impl Engine {
         let backend = backend.into();
         Engine {
             backend: backend.culler(&prepared),
-            cpu_fallback: matches!(backend, Backend::Reference),
             prepared: Arc::new(prepared),
         }
     }

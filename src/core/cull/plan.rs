@@ -2,11 +2,13 @@
 //! scene BVH, pick the in-frustum test boxes, select occluders, build the box-based
 //! depth estimation buffer. A backend then runs the image-space work on the plan.
 
+use super::mask::{empty_mask, has_bit, set_bit};
 use super::prepared::PreparedScene;
 use super::settings::CullSettings;
-use crate::core::camera::Camera;
+use crate::core::camera::{Camera, ScreenRect};
 use crate::core::cull::deb::DepthEstimationBuffer;
 use crate::core::occluders::OccluderSelection;
+use crate::core::scene::Scene;
 
 /// The CPU-side preparation of one pose.
 pub struct PosePlan {
@@ -17,6 +19,29 @@ pub struct PosePlan {
     pub test_boxes: Vec<u32>,
     pub occluders: OccluderSelection,
     pub deb: DepthEstimationBuffer,
+}
+
+impl PosePlan {
+    /// The visibility bitmask of the box test: an object is visible unless `hidden`
+    /// proves each of its in-frustum test boxes' screen rects hidden (a box behind the
+    /// near plane shows nothing; an object's remaining boxes are skipped once one is
+    /// visible). Every backend's box test is this loop with its own `hidden`.
+    pub fn box_test(&self, scene: &Scene, mut hidden: impl FnMut(&ScreenRect) -> bool) -> Vec<u32> {
+        let mut mask = empty_mask(scene.objects.len());
+        for &b in &self.test_boxes {
+            let tb = &scene.boxes[b as usize];
+            if has_bit(&mask, tb.object) {
+                continue; // another sub-bound of this object is already visible
+            }
+            let Some(r) = self.cam.project_box(&tb.aabb) else {
+                continue;
+            };
+            if !hidden(&r) {
+                set_bit(&mut mask, tb.object);
+            }
+        }
+        mask
+    }
 }
 
 /// Frustum culling, test-box selection, occluder selection and box DEB for one pose.

@@ -8,9 +8,7 @@ use super::pyramid::{self, LevelLayout};
 use super::raster::raster_depth;
 use super::test::{PyramidView, hom_occluded, hzb_occluded};
 use super::{level_thresholds, oracle, refine, triangles_of};
-use crate::core::cull::{
-    CullError, CullSettings, Culler, PosePlan, PreparedScene, empty_mask, has_bit, set_bit,
-};
+use crate::core::cull::{CullError, CullSettings, Culler, PosePlan, PreparedScene};
 use crate::core::scene::Scene;
 
 /// The CPU reference of every pass.
@@ -38,30 +36,16 @@ impl ReferenceBackend {
         opacity: &[f32],
         depth: &[f32],
     ) -> Vec<u32> {
-        let mut mask = empty_mask(scene.objects.len());
         let view = PyramidView {
             layout,
             opacity,
             depth,
         };
         let thr = level_thresholds(s.options.threshold, layout.levels());
-        for &b in &p.test_boxes {
-            let tb = &scene.boxes[b as usize];
-            if has_bit(&mask, tb.object) {
-                continue; // another sub-bound of this object is already visible
-            }
-            let Some(r) = p.cam.project_box(&tb.aabb) else {
-                continue;
-            };
-            let hidden = match s.options.method {
-                Method::Hzb => hzb_occluded(&r, &view),
-                _ => hom_occluded(&r, &view, &thr, s.options.deb, &p.deb),
-            };
-            if !hidden {
-                set_bit(&mut mask, tb.object);
-            }
-        }
-        mask
+        p.box_test(scene, |r| match s.options.method {
+            Method::Hzb => hzb_occluded(r, &view),
+            _ => hom_occluded(r, &view, &thr, s.options.deb, &p.deb),
+        })
     }
 
     /// See [`refine::refine`].

@@ -43,7 +43,7 @@ use rayon::prelude::*;
 
 use crate::core::cull::deb::DEPTH_MARGIN;
 use crate::core::cull::{
-    CullError, CullSettings, Culler, PosePlan, PreparedScene, empty_mask, has_bit, set_bit,
+    CullError, CullSettings, Culler, PosePlan, PreparedScene, clear_bit, has_bit,
 };
 use crate::core::hom::{ReferenceBackend, pyramid};
 use map::OcclusionMap;
@@ -103,7 +103,7 @@ impl NativeBackend {
         if s.refines() {
             for &c in &p.candidates {
                 if has_bit(&mask, c) && refine::hidden_per_pixel(map, scene, &p.cam, c) {
-                    crate::core::cull::clear_bit(&mut mask, c);
+                    clear_bit(&mut mask, c);
                 }
             }
         }
@@ -117,27 +117,14 @@ impl NativeBackend {
         p: &PosePlan,
         s: &CullSettings,
     ) -> Vec<u32> {
-        let scene = &prep.scene;
-        let mut mask = empty_mask(scene.objects.len());
         let raster = s.options.deb == DebVariant::Raster;
-        for &b in &p.test_boxes {
-            let tb = &scene.boxes[b as usize];
-            if has_bit(&mask, tb.object) {
-                continue; // another sub-bound of this object is already visible
-            }
-            let Some(r) = p.cam.project_box(&tb.aabb) else {
-                continue;
-            };
-            let hidden = if raster {
-                map.rect_hidden(&r, (1.0 + DEPTH_MARGIN) / r.near)
+        p.box_test(&prep.scene, |r| {
+            if raster {
+                map.rect_hidden(r, (1.0 + DEPTH_MARGIN) / r.near)
             } else {
-                p.deb.all_in_front(&r, r.near) && map.rect_hidden(&r, 0.0)
-            };
-            if !hidden {
-                set_bit(&mut mask, tb.object);
+                p.deb.all_in_front(r, r.near) && map.rect_hidden(r, 0.0)
             }
-        }
-        mask
+        })
     }
 
     /// Approximate thresholds and HZB: the reference pyramid and test on this map.
