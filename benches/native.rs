@@ -22,7 +22,7 @@ use homcull::core::native::map::OcclusionMap;
 use homcull::core::occluders::OccluderParams;
 use homcull::core::sampler::PoseSampler;
 use homcull::core::scene::load_path;
-use homcull_proto::{CullOptions, DebVariant, Method};
+use homcull_proto::{CullOptions, Method};
 
 const SCENES: &[&str] = &["munich", "etoile", "oa_shouse", "oa_dm1"];
 const POSES: usize = 32;
@@ -68,12 +68,11 @@ fn scene(name: &str) -> &'static Bench {
 }
 
 fn settings(b: &Bench, method: Method) -> CullSettings {
+    // The served options (threshold 1, raster DEB, refined) with this method.
     CullSettings::new(
         CullOptions {
             method,
-            threshold: 1.0,
-            deb: DebVariant::Raster,
-            refine: true,
+            ..CullOptions::default()
         },
         &b.prep,
     )

@@ -3,15 +3,16 @@
 
 mod common;
 
+use common::scenes::{random_scene, settings};
 use glam::Vec3;
 use homcull::core::camera::{Camera, look_at};
-use homcull::core::cull::{CullSettings, Culler, PreparedScene, plan};
+use homcull::core::cull::{Culler, PreparedScene, plan};
 use homcull::core::gpu::GpuBackend;
 use homcull::core::hom::ReferenceBackend;
 use homcull::core::hom::pyramid::{self, LevelLayout};
 use homcull::core::occluders::OccluderParams;
-use homcull::core::scene::{Scene, SceneBuilder, demo_city};
-use homcull_proto::{CullOptions, DebVariant, Method};
+use homcull::core::scene::demo_city;
+use homcull_proto::{DebVariant, Method};
 use proptest::prelude::*;
 
 fn demo_cams(w: u32, h: u32) -> Vec<Camera> {
@@ -24,18 +25,6 @@ fn demo_cams(w: u32, h: u32) -> Vec<Camera> {
     .iter()
     .map(|&(e, t)| look_at(e, t, w, h))
     .collect()
-}
-
-fn settings(prep: &PreparedScene, method: Method, deb: DebVariant, refine: bool) -> CullSettings {
-    CullSettings::new(
-        CullOptions {
-            method,
-            threshold: 1.0,
-            deb,
-            refine,
-        },
-        prep,
-    )
 }
 
 #[test]
@@ -215,36 +204,6 @@ fn batch_equals_single_calls() {
             assert_eq!(batched[i].visible, batched[i + 16].visible);
         }
     }
-}
-
-/// A random scene: a ground quad and boxes of random size and place.
-fn random_scene(boxes: &[(f32, f32, f32, f32, f32)]) -> Scene {
-    let mut b = SceneBuilder::default();
-    let g = [
-        Vec3::new(-60.0, 0.0, -60.0),
-        Vec3::new(60.0, 0.0, -60.0),
-        Vec3::new(60.0, 0.0, 60.0),
-        Vec3::new(-60.0, 0.0, 60.0),
-    ];
-    b.push("ground".into(), &g, &[0, 2, 1, 0, 3, 2], None);
-    for (i, &(x, z, sx, sy, sz)) in boxes.iter().enumerate() {
-        let (lo, hi) = (Vec3::new(x, 0.0, z), Vec3::new(x + sx, sy, z + sz));
-        let c: Vec<Vec3> = (0..8)
-            .map(|k| {
-                Vec3::new(
-                    if k & 1 == 0 { lo.x } else { hi.x },
-                    if k & 2 == 0 { lo.y } else { hi.y },
-                    if k & 4 == 0 { lo.z } else { hi.z },
-                )
-            })
-            .collect();
-        let idx = [
-            0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4,
-            6, 1, 3, 5, 3, 7, 5,
-        ];
-        b.push(format!("box_{i}"), &c, &idx, None);
-    }
-    b.build("random")
 }
 
 proptest! {

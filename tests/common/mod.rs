@@ -56,6 +56,7 @@ pub fn scenes_dir() -> Option<PathBuf> {
 
 pub mod hostile;
 pub mod rest;
+pub mod scenes;
 pub mod server;
 pub mod ws;
 
