@@ -42,6 +42,7 @@ impl ScreenPolygon {
     }
 }
 
+#[inline(always)]
 fn clip_polygon(
     poly: &[Vec4; MAX_CLIPPED],
     len: usize,
@@ -66,7 +67,9 @@ fn clip_polygon(
 }
 
 /// Clips a world-space triangle against the near and far planes and projects it.
-#[inline]
+/// Always inlined, so that the native backend's kernels compile it at their SIMD
+/// level (the same arithmetic: no contraction into fused multiply-adds).
+#[inline(always)]
 pub fn screen_polygon(cam: &Camera, tri: [Vec3; 3]) -> ScreenPolygon {
     let mut a = [Vec4::ZERO; MAX_CLIPPED];
     let mut b = [Vec4::ZERO; MAX_CLIPPED];
@@ -108,12 +111,13 @@ pub fn raster_triangle(cam: &Camera, tri: [Vec3; 3], mut plot: impl FnMut(u32, u
 
 /// The edge function of `a → b` at `(px, py)`: positive on the inner side of a
 /// counter-clockwise (in y-down screen space, clockwise on screen) triangle.
-#[inline]
+#[inline(always)]
 pub fn edge(a: ScreenVertex, b: ScreenVertex, px: f64, py: f64) -> f64 {
     (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x)
 }
 
 /// Top-left rule for a triangle of positive area in y-down screen space.
+#[inline(always)]
 fn owns_edge(a: ScreenVertex, b: ScreenVertex) -> bool {
     let (dx, dy) = (b.x - a.x, b.y - a.y);
     (dy == 0.0 && dx > 0.0) || dy < 0.0
@@ -137,6 +141,7 @@ pub struct ScreenTriangle {
 
 impl ScreenTriangle {
     /// None for degenerate triangles and those whose box misses every pixel centre.
+    #[inline(always)]
     pub fn new(width: u32, height: u32, mut v: [ScreenVertex; 3]) -> Option<Self> {
         let mut area = edge(v[0], v[1], v[2].x, v[2].y);
         if area == 0.0 || !area.is_finite() {

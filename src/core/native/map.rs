@@ -16,7 +16,7 @@
 
 use glam::Vec3;
 
-use super::span::{LANES, Span, span_triangles};
+use super::span::{LANES, Span, SpanTriangle, padded_len, span_triangles};
 use crate::core::camera::{Camera, ScreenRect};
 use crate::core::cull::deb::DEPTH_MARGIN;
 use crate::core::scene::Scene;
@@ -37,17 +37,34 @@ const MAX_LEVELS: usize = 18;
 pub struct OcclusionMap {
     pub width: u32,
     pub height: u32,
-    /// Nearest occluder `1/w` per pixel, row-major (0 = uncovered).
-    pub inv_w: Vec<f32>,
+    /// Nearest occluder `1/w` per pixel, row-major (0 = uncovered), padded for the
+    /// span kernels (`span::padded_len`); [`OcclusionMap::pixels`] is the image.
+    inv_w: Vec<f32>,
     dims: Vec<(u32, u32)>,
     offsets: Vec<usize>,
     /// Smallest `1/w` under each texel, all levels.
     far: Vec<f32>,
     /// Largest `1/w` under each texel, all levels.
     near: Vec<f32>,
+    /// The screen triangles of the draw in progress, and their order by first row.
+    setup: Vec<SpanTriangle>,
+    order: Vec<u32>,
+    /// Whether every tile's bounds were built since the last reset (then a draw
+    /// re-bounds only the bands it wrote to).
+    bounded: bool,
 }
 
 impl OcclusionMap {
+    /// The nearest occluder `1/w` of each pixel, row-major (0 = uncovered).
+    pub fn pixels(&self) -> &[f32] {
+        &self.inv_w[..(self.width * self.height) as usize]
+    }
+
+    /// The pixels and the padding after them, for the span kernels.
+    pub(super) fn pixels_with_padding(&self) -> &[f32] {
+        &self.inv_w
+    }
+
     /// Clears the map for a `width × height` viewport.
     pub fn reset(&mut self, width: u32, height: u32) {
         let n = (width * height) as usize;
@@ -70,19 +87,19 @@ impl OcclusionMap {
             }
             self.far = vec![0.0; total];
             self.near = vec![0.0; total];
-            self.inv_w = vec![0.0; n];
+            self.inv_w = vec![0.0; padded_len(n)];
         } else {
             self.inv_w.fill(0.0);
         }
+        self.bounded = false;
     }
 
     /// Draws the front faces of occluders `ids` (nearest first), leaving out those
-    /// already hidden: after the nearest [`CHECKPOINT`] share of them the map is
-    /// bounded once, and each later occluder whose box that map already hides (the box
+    /// already hidden: after the nearest [`CHECKPOINT`] share of them is drawn (which
+    /// bounds the map), each later occluder whose box the map already hides (the box
     /// test, margin included) is skipped. Its fragments all lie behind what the map
     /// holds there, which only grows nearer, so skipping it leaves the final map
-    /// exactly as drawing it would. Answers the number skipped; bound the map again
-    /// before testing against it.
+    /// exactly as drawing it would. Answers the number skipped; the map is bounded.
     pub fn draw_occluders(&mut self, scene: &Scene, cam: &Camera, ids: &[u32]) -> usize {
         let eye = cam.position;
         let front = |id: &u32| {
@@ -99,7 +116,8 @@ impl OcclusionMap {
         if first == ids.len() {
             return 0;
         }
-        self.build_bounds();
+        let mut setup = std::mem::take(&mut self.setup);
+        setup.clear();
         let mut skipped = 0;
         let rest = ids[first..].iter().filter(|&&id| {
             let hidden = cam
@@ -108,31 +126,55 @@ impl OcclusionMap {
             skipped += hidden as usize;
             !hidden
         });
-        let rest: Vec<u32> = rest.copied().collect();
-        self.draw(cam, rest.iter().flat_map(front));
+        setup_triangles(self, cam, rest.flat_map(front), &mut setup);
+        draw_binned(self, &setup);
+        self.setup = setup;
         skipped
     }
 
-    /// Draws triangles into the map (the nearest fragment wins each pixel).
+    /// Draws triangles into the map (the nearest fragment wins each pixel) and bounds
+    /// it.
     pub fn draw(&mut self, cam: &Camera, tris: impl Iterator<Item = [Vec3; 3]>) {
-        draw_triangles(self, cam, tris)
+        let mut setup = std::mem::take(&mut self.setup);
+        setup.clear();
+        for tri in tris {
+            span_triangles(cam, tri, |t| {
+                setup.push(*t);
+                true
+            });
+        }
+        draw_binned(self, &setup);
+        self.setup = setup;
     }
 
-    /// Builds the tile bounds from the pixels.
+    /// Builds the tile bounds from the pixels (drawing does it as it goes).
     pub fn build_bounds(&mut self) {
-        let (tw, th) = self.dims[0];
-        let w = self.width as usize;
-        let (far, near) = (&mut self.far, &mut self.near);
-        far[..(tw * th) as usize].fill(f32::INFINITY);
-        near[..(tw * th) as usize].fill(0.0);
-        for (y, row) in self.inv_w.chunks_exact(w).enumerate() {
-            let t0 = (y / TILE as usize) * tw as usize;
-            tile_row_bounds(
-                row,
-                &mut far[t0..t0 + tw as usize],
-                &mut near[t0..t0 + tw as usize],
-            );
+        for ty in 0..self.dims[0].1 {
+            self.bound_tile_row(ty);
         }
+        self.bound_upper_levels();
+        self.bounded = true;
+    }
+
+    /// The finest bounds of tile row `ty` from its pixels.
+    fn bound_tile_row(&mut self, ty: u32) {
+        let (tw, _) = self.dims[0];
+        let w = self.width as usize;
+        let y0 = (ty * TILE) as usize;
+        let y1 = ((ty + 1) * TILE).min(self.height) as usize;
+        let t0 = (ty * tw) as usize;
+        tile_band_bounds(
+            &self.inv_w[y0 * w..y1 * w],
+            w,
+            &mut self.far[t0..t0 + tw as usize],
+            &mut self.near[t0..t0 + tw as usize],
+        );
+    }
+
+    /// The coarser levels of the bounds from the finest.
+    fn bound_upper_levels(&mut self) {
+        let far = &mut self.far;
+        let near = &mut self.near;
         for l in 1..self.dims.len() {
             let (w, h) = self.dims[l];
             let (cw, ch) = self.dims[l - 1];
@@ -227,60 +269,142 @@ pub fn front_facing(eye: Vec3, t: &[Vec3; 3]) -> bool {
     (t[1] - t[0]).cross(t[2] - t[0]).dot(t[0] - eye) < 0.0
 }
 
-/// [`OcclusionMap::draw`], compiled once per SIMD level (the span kernels inline).
+/// Triangles whose pixel box is at least this large are first tested against the
+/// tile bounds when drawing into a bounded map: a test costs about as much as a few
+/// rows of spans.
+const SKIP_TEST_MIN_PIXELS: u32 = 64;
+
+/// Rows of the map drawn together ([`draw_binned`]): a band of a 960-pixel-wide map
+/// (120 KB) stays in a core's L2 cache while every triangle reaching it is drawn and
+/// its tiles are bounded. A multiple of [`TILE`].
+const BAND: u32 = 32;
+
+/// The screen triangles of `tris` for drawing into `map`, which is bounded and has
+/// only grown nearer since: a large triangle that the bounds show behind the map
+/// everywhere in its box is left out, since each of its fragments would lose to the
+/// pixel it falls on and the map ends the same. (Stale bounds only make that test
+/// answer "not hidden" more often.)
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
-fn draw_triangles<I: Iterator<Item = [Vec3; 3]>>(map: &mut OcclusionMap, cam: &Camera, tris: I) {
-    let rows = (0, map.height - 1);
-    let w = map.width as usize;
+fn setup_triangles<I: Iterator<Item = [Vec3; 3]>>(
+    map: &OcclusionMap,
+    cam: &Camera,
+    tris: I,
+    out: &mut Vec<SpanTriangle>,
+) {
     for tri in tris {
         span_triangles(cam, tri, |t| {
-            t.spans(rows, |y, s| {
-                let at = y as usize * w + s.x0 as usize;
-                keep_nearest(&mut map.inv_w[at..at + s.pixels()], &s);
-                true
-            })
+            if t.box_pixels() >= SKIP_TEST_MIN_PIXELS {
+                let (r, nearest) = t.bounds();
+                if map.rect_hidden(&r, nearest as f32) {
+                    return true;
+                }
+            }
+            out.push(*t);
+            true
         });
     }
 }
 
+/// Draws screen triangles band by band ([`BAND`] rows): each band's pixels are
+/// written by every triangle reaching it, then its tiles are bounded, while they are
+/// in cache (a band no triangle reaches keeps its bounds if the map was bounded
+/// before); the coarser bounds follow. The map keeps the largest `1/w` per pixel,
+/// which does not depend on the order of drawing.
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
+    let mut order = std::mem::take(&mut map.order);
+    order.clear();
+    order.extend(0..tris.len() as u32);
+    order.sort_unstable_by_key(|&i| tris[i as usize].tri.y0);
+    let mut active: Vec<u32> = Vec::new();
+    let mut next = 0;
+    let w = map.width as usize;
+    for y0 in (0..map.height).step_by(BAND as usize) {
+        let y1 = (y0 + BAND - 1).min(map.height - 1);
+        while let Some(&i) = order.get(next) {
+            if tris[i as usize].tri.y0 > y1 {
+                break;
+            }
+            active.push(i);
+            next += 1;
+        }
+        active.retain(|&i| tris[i as usize].tri.y1 >= y0);
+        if map.bounded && active.is_empty() {
+            continue; // the band's pixels, and so its bounds, are as they were
+        }
+        for &i in &active {
+            tris[i as usize].spans((y0, y1), |y, s| {
+                let at = y as usize * w + s.x0 as usize;
+                keep_nearest(&mut map.inv_w[at..at + s.lanes_len()], &s);
+                true
+            });
+        }
+        for ty in y0 / TILE..=y1 / TILE {
+            map.bound_tile_row(ty);
+        }
+    }
+    map.bound_upper_levels();
+    map.bounded = true;
+    map.order = order;
+}
+
 /// `dst[i] = max(dst[i], 1/w of the span's pixel i)`: the nearest fragment wins.
+/// `dst` runs on to the span's [`Span::lanes_len`]; in the last chunk, lanes past the
+/// span hold 0, which leaves a pixel (never below 0) unchanged.
 #[inline(always)]
 fn keep_nearest(dst: &mut [f32], s: &Span) {
+    let pixels = s.pixels();
+    let full = pixels / LANES;
     let mut chunks = dst.chunks_exact_mut(LANES);
-    let mut i = 0;
-    for c in &mut chunks {
-        let v = s.lanes(i);
-        // `max`, not a conditional store: a masked store is microcoded on some CPUs.
-        for k in 0..LANES {
-            c[k] = c[k].max(v[k]);
-        }
-        i += LANES;
+    for (n, c) in (&mut chunks).take(full).enumerate() {
+        keep_larger(c, &s.lanes(n * LANES));
     }
-    let v = s.lanes(i);
-    for (d, &v) in chunks.into_remainder().iter_mut().zip(&v) {
-        *d = d.max(v);
+    if let Some(c) = chunks.next() {
+        keep_larger(c, &s.lanes_or(full * LANES, 0.0));
     }
 }
 
-/// Folds one pixel row into the bounds of the tiles it crosses.
-#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
-fn tile_row_bounds(row: &[f32], far: &mut [f32], near: &mut [f32]) {
-    let mut chunks = row.chunks_exact(TILE as usize);
-    for ((c, f), n) in (&mut chunks).zip(far.iter_mut()).zip(near.iter_mut()) {
-        let (mut lo, mut hi) = (*f, *n);
-        for &v in c {
-            lo = if v < lo { v } else { lo };
-            hi = if v > hi { v } else { hi };
-        }
-        (*f, *n) = (lo, hi);
+/// `c[k] = max(c[k], v[k])` for `1/w` values: compared as the integers of their bits,
+/// which order non-negative floats as the floats do (a negative `v` never wins, and
+/// the map holds no negative value). One integer `max` per lane, where `f32::max`
+/// adds NaN handling (and a compare and select becomes a masked store).
+#[inline(always)]
+fn keep_larger(c: &mut [f32], v: &[f32; LANES]) {
+    for k in 0..LANES {
+        let larger = (c[k].to_bits() as i32).max(v[k].to_bits() as i32);
+        c[k] = f32::from_bits(larger as u32);
     }
-    let rest = chunks.remainder();
-    if !rest.is_empty() {
-        let last = far.len() - 1;
-        for &v in rest {
-            far[last] = far[last].min(v);
-            near[last] = near[last].max(v);
+}
+
+/// The bounds of one band of tiles (up to [`TILE`] pixel rows of width `w`): per
+/// tile, the smallest and largest `1/w` under it. Full tiles are folded row by row
+/// lane-wise (vertical min/max, one register per tile) and reduced across lanes once.
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn tile_band_bounds(rows: &[f32], w: usize, far: &mut [f32], near: &mut [f32]) {
+    const T: usize = TILE as usize;
+    let full = w / T;
+    for tx in 0..full {
+        let (mut lo, mut hi) = ([f32::INFINITY; T], [0.0f32; T]);
+        for row in rows.chunks_exact(w) {
+            let px: &[f32; T] = row[tx * T..tx * T + T].try_into().expect("a tile row");
+            for k in 0..T {
+                lo[k] = if px[k] < lo[k] { px[k] } else { lo[k] };
+                hi[k] = if px[k] > hi[k] { px[k] } else { hi[k] };
+            }
         }
+        far[tx] = lo.into_iter().fold(f32::INFINITY, f32::min);
+        near[tx] = hi.into_iter().fold(0.0, f32::max);
+    }
+    if full < far.len() {
+        let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
+        for row in rows.chunks_exact(w) {
+            for &v in &row[full * T..] {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+        far[full] = lo;
+        near[full] = hi;
     }
 }
 
@@ -317,7 +441,7 @@ mod tests {
         let mut map = OcclusionMap::default();
         map.reset(w, h);
         map.draw(&cam, tris.iter().copied());
-        for (i, (&r, &m)) in reference.iter().zip(&map.inv_w).enumerate() {
+        for (i, (&r, &m)) in reference.iter().zip(map.pixels()).enumerate() {
             assert_eq!(r > 0.0, m > 0.0, "coverage of pixel {i}");
             if r > 0.0 {
                 assert!(
@@ -327,7 +451,10 @@ mod tests {
                 );
             }
         }
+        // Drawing left the map bounded, as building the bounds from scratch would.
+        let (far, near) = (map.far.clone(), map.near.clone());
         map.build_bounds();
+        assert!(far == map.far && near == map.near, "bounds left by drawing");
         let mut hidden = 0;
         for _ in 0..4000 {
             let x0 = rng.random_range(0..w);
@@ -342,7 +469,7 @@ mod tests {
             };
             let t = [0.0, 0.1, 0.125, 0.15][rng.random_range(0..4)];
             let want =
-                (r.y0..r.y1).all(|y| (r.x0..r.x1).all(|x| map.inv_w[(y * w + x) as usize] > t));
+                (r.y0..r.y1).all(|y| (r.x0..r.x1).all(|x| map.pixels()[(y * w + x) as usize] > t));
             assert_eq!(map.rect_hidden(&r, t), want, "{r:?} at {t}");
             hidden += want as u32;
         }

@@ -93,11 +93,11 @@ impl NativeBackend {
     ) -> Vec<u32> {
         let scene = &prep.scene;
         map.reset(p.cam.width, p.cam.height);
+        // Drawing leaves the map bounded: the box test and the refinement read them.
         map.draw_occluders(scene, &p.cam, &p.occluders.ids);
         let mut mask = if s.options.method == Method::Hzb || s.options.threshold < 1.0 {
             Self::reference_test(map, p, s, prep)
         } else {
-            map.build_bounds();
             Self::test_boxes(map, prep, p, s)
         };
         if s.refines() {
@@ -135,7 +135,7 @@ impl NativeBackend {
         prep: &PreparedScene,
     ) -> Vec<u32> {
         let depth: Vec<f32> = map
-            .inv_w
+            .pixels()
             .iter()
             .map(|&v| if v > 0.0 { 1.0 / v } else { 0.0 })
             .collect();

@@ -11,7 +11,7 @@
 //! keeps a tie, or a difference in the last bits, from ever culling.
 
 use super::map::OcclusionMap;
-use super::span::{LANES, Span, span_triangles};
+use super::span::{LANES, Span, padded_len, span_triangles};
 use crate::core::camera::Camera;
 use crate::core::cull::{empty_mask, set_bit};
 use crate::core::scene::Scene;
@@ -33,37 +33,34 @@ pub fn hidden_per_pixel(map: &OcclusionMap, scene: &Scene, cam: &Camera, id: u32
     let o = &scene.objects[id as usize];
     scene.corners_of(o).all(|tri| {
         span_triangles(cam, tri, |t| {
+            // A triangle that lies behind the map's tile bounds everywhere in its box
+            // needs no spans: every fragment would pass the per-pixel test below.
+            let (r, nearest) = t.bounds();
+            if map.rect_hidden(&r, (nearest * (1.0 + REFINE_MARGIN as f64)) as f32) {
+                return true;
+            }
             t.spans(rows, |y, s| {
                 let at = y as usize * w + s.x0 as usize;
-                span_hidden(&map.inv_w[at..at + s.pixels()], &s)
+                span_hidden(&map.pixels_with_padding()[at..at + s.lanes_len()], &s)
             })
         })
     })
 }
 
-/// Whether the map lies in front of every fragment of the span by the margin.
+/// Whether the map lies in front of every fragment of the span by the margin (`occ`
+/// runs on to the span's [`Span::lanes_len`]; lanes past the span count as hidden).
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn span_hidden(occ: &[f32], s: &Span) -> bool {
     let k = 1.0 + REFINE_MARGIN;
-    let mut chunks = occ.chunks_exact(LANES);
-    let mut i = 0;
-    for c in &mut chunks {
-        let v = s.lanes(i);
+    occ.chunks_exact(LANES).enumerate().all(|(n, c)| {
+        // Past the span, -1: every map value (never below 0) lies in front of it.
+        let v = s.lanes_or(n * LANES, -1.0);
         let mut all = true;
         for j in 0..LANES {
             all &= c[j] > k * v[j];
         }
-        if !all {
-            return false;
-        }
-        i += LANES;
-    }
-    let v = s.lanes(i);
-    chunks
-        .remainder()
-        .iter()
-        .zip(&v)
-        .fold(true, |all, (&o, &v)| all & (o > k * v))
+        all
+    })
 }
 
 /// Scratch buffers of the ID-buffer cull, kept from pose to pose.
@@ -79,9 +76,9 @@ pub struct IdBuffer {
 pub fn exact(buf: &mut IdBuffer, scene: &Scene, cam: &Camera, candidates: &[u32]) -> Vec<u32> {
     let n = (cam.width * cam.height) as usize;
     buf.inv_w.clear();
-    buf.inv_w.resize(n, 0.0);
+    buf.inv_w.resize(padded_len(n), 0.0);
     buf.ids.clear();
-    buf.ids.resize(n, u32::MAX);
+    buf.ids.resize(padded_len(n), u32::MAX);
     let rows = (0, cam.height - 1);
     let w = cam.width as usize;
     for &id in candidates {
@@ -89,7 +86,7 @@ pub fn exact(buf: &mut IdBuffer, scene: &Scene, cam: &Camera, candidates: &[u32]
             span_triangles(cam, tri, |t| {
                 t.spans(rows, |y, s| {
                     let at = y as usize * w + s.x0 as usize;
-                    let end = at + s.pixels();
+                    let end = at + s.lanes_len();
                     nearest_id(&mut buf.inv_w[at..end], &mut buf.ids[at..end], &s, id);
                     true
                 })
@@ -97,26 +94,32 @@ pub fn exact(buf: &mut IdBuffer, scene: &Scene, cam: &Camera, candidates: &[u32]
         }
     }
     let mut mask = empty_mask(scene.objects.len());
-    for &id in buf.ids.iter().filter(|&&id| id != u32::MAX) {
+    for &id in buf.ids[..n].iter().filter(|&&id| id != u32::MAX) {
         set_bit(&mut mask, id);
     }
     mask
 }
 
-/// Depth-tested write of `id` over the span's pixels.
+/// Depth-tested write of `id` over the span's pixels (the buffers run on to the
+/// span's [`Span::lanes_len`]; lanes past the span are left as they are).
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn nearest_id(inv_w: &mut [f32], ids: &mut [u32], s: &Span, id: u32) {
-    for (k, (dc, oc)) in inv_w
-        .chunks_mut(LANES)
-        .zip(ids.chunks_mut(LANES))
+    for (n, (dc, oc)) in inv_w
+        .chunks_exact_mut(LANES)
+        .zip(ids.chunks_exact_mut(LANES))
         .enumerate()
     {
-        let v = s.lanes(k * LANES);
-        for j in 0..dc.len() {
-            if v[j] > dc[j] {
-                dc[j] = v[j];
-                oc[j] = id;
-            }
+        // Past the span, -1: no map value (never below 0) lies behind it.
+        let v = s.lanes_or(n * LANES, -1.0);
+        // Blended in registers and stored whole (a select of the loaded value
+        // written back in place becomes a masked store).
+        let (mut depth, mut owner) = ([0.0; LANES], [0; LANES]);
+        for j in 0..LANES {
+            let wins = v[j] > dc[j];
+            depth[j] = if wins { v[j] } else { dc[j] };
+            owner[j] = if wins { id } else { oc[j] };
         }
+        dc.copy_from_slice(&depth);
+        oc.copy_from_slice(&owner);
     }
 }

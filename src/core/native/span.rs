@@ -19,14 +19,22 @@
 
 use glam::Vec3;
 
-use crate::core::camera::Camera;
+use crate::core::camera::{Camera, ScreenRect};
 use crate::core::hom::raster::{ScreenTriangle, ScreenVertex, edge, screen_polygon};
 
 /// Pixels evaluated together along a span (one AVX2 register of f32).
 pub const LANES: usize = 8;
 
+/// Rows whose span ends are computed together (one AVX2 register of f64).
+pub const ROWS: usize = 4;
+
+/// A relative bound on how far [`Span::lanes`] (f32 from an f64 base at most
+/// `LANES - 1` pixels back) can exceed the exact `1/w` plane: a few f32 roundings,
+/// generously (the tests measure under 2e-6 against the reference's depths).
+pub const LANE_SLACK: f64 = 4e-6;
+
 /// The lane offsets `0, 1, …, LANES-1`.
-const RAMP: [f32; LANES] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0];
+pub const RAMP: [f32; LANES] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0];
 
 /// One edge `a → b` of a screen triangle, set up for its rows.
 #[derive(Clone, Copy)]
@@ -40,6 +48,7 @@ struct EdgeSetup {
 }
 
 /// A screen triangle with what its spans need: coverage setup and `1/w` gradient.
+#[derive(Clone, Copy)]
 pub struct SpanTriangle {
     pub tri: ScreenTriangle,
     edges: [EdgeSetup; 3],
@@ -76,6 +85,31 @@ impl SpanTriangle {
         }
     }
 
+    /// The triangle's pixel box (exclusive ends) and a bound on the `1/w` of every
+    /// fragment it has: `1/w` is a plane in screen space, so its largest value over
+    /// the triangle is at a vertex; the bound adds [`LANE_SLACK`] for the f32 lane
+    /// evaluation ([`Span::lanes`]), so no fragment's computed `1/w` exceeds it.
+    #[inline]
+    pub fn bounds(&self) -> (ScreenRect, f64) {
+        let v = &self.tri.v;
+        let nearest = v[0].inv_w.max(v[1].inv_w).max(v[2].inv_w);
+        let r = ScreenRect {
+            x0: self.tri.x0,
+            y0: self.tri.y0,
+            x1: self.tri.x1 + 1,
+            y1: self.tri.y1 + 1,
+            near: (1.0 / nearest) as f32,
+            far: f32::INFINITY,
+        };
+        (r, nearest * (1.0 + LANE_SLACK))
+    }
+
+    /// Pixels in the triangle's box.
+    #[inline]
+    pub fn box_pixels(&self) -> u32 {
+        (self.tri.x1 - self.tri.x0 + 1) * (self.tri.y1 - self.tri.y0 + 1)
+    }
+
     /// Calls `f(y, span)` for every row in `rows` (inclusive) the triangle covers;
     /// stops, answering false, when `f` does.
     #[inline(always)]
@@ -86,8 +120,15 @@ impl SpanTriangle {
             return true;
         }
         let v0 = self.tri.v[0];
-        for y in y0..=y1 {
-            if let Some((x0, x1)) = self.row(y) {
+        // Blocks start at multiples of ROWS, so that a triangle drawn band by band
+        // (`map.rs`) computes each of its rows once.
+        for block in (y0 - y0 % ROWS as u32..=y1).step_by(ROWS) {
+            let (lo, hi) = self.row_block(block, (y0, y1));
+            for r in 0..ROWS {
+                if lo[r] > hi[r] {
+                    continue;
+                }
+                let (y, x0, x1) = (block + r as u32, lo[r] as u32, hi[r] as u32);
                 let (px, py) = (x0 as f64 + 0.5, y as f64 + 0.5);
                 let start = v0.inv_w + self.slope * (px - v0.x) + self.slope_y * (py - v0.y);
                 let span = Span {
@@ -102,6 +143,74 @@ impl SpanTriangle {
             }
         }
         true
+    }
+
+    /// [`SpanTriangle::row`] for the [`ROWS`] rows from `y`, computed lane-wise: each
+    /// edge's crossing, its floor and the near-tie check for all rows at once (one
+    /// AVX2 register of f64), with the same arithmetic as `row`. A row where any edge
+    /// is in doubt (a near tie, a NaN or a huge crossing) is answered by `row` itself,
+    /// so every answer is `row`'s. Answers each row's first and last pixel, first >
+    /// last where the row is empty; rows outside `within` (inclusive) are empty.
+    /// (Plain arrays, not `Option`s: building those per row stalled on store
+    /// forwarding.)
+    #[inline(always)]
+    pub fn row_block(&self, y: u32, within: (u32, u32)) -> ([i32; ROWS], [i32; ROWS]) {
+        let t = &self.tri;
+        let mut py = [0.0; ROWS];
+        for (r, py) in py.iter_mut().enumerate() {
+            *py = (y + r as u32) as f64 + 0.5;
+        }
+        let mut lo = [t.x0 as f64; ROWS];
+        let mut hi = [t.x1 as f64; ROWS];
+        let mut doubt = [false; ROWS];
+        for (k, e) in self.edges.iter().enumerate() {
+            if e.q == 0.0 {
+                // A horizontal edge: its edge function is constant along each row.
+                for r in 0..ROWS {
+                    if !t.inside_edge(k, edge(e.a, e.b, lo[r] + 0.5, py[r])) {
+                        hi[r] = -1.0;
+                    }
+                }
+                continue;
+            }
+            let mut below = [0.0; ROWS];
+            for r in 0..ROWS {
+                let c = e.a.x + e.slope * (py[r] - e.a.y) - 0.5;
+                below[r] = c.floor();
+                let frac = c - below[r];
+                let band = tie_band(e.a.x, c);
+                // NaN fails every comparison; a huge crossing is left to `row` too.
+                let clear = frac > band && frac < 1.0 - band && c.abs() < 1e15;
+                doubt[r] |= !clear;
+            }
+            if e.q < 0.0 {
+                for r in 0..ROWS {
+                    lo[r] = lo[r].max(below[r] + 1.0);
+                }
+            } else {
+                for r in 0..ROWS {
+                    hi[r] = hi[r].min(below[r]);
+                }
+            }
+        }
+        // A plain loop: `array::from_fn` is left a call per row, at the baseline SIMD
+        // level.
+        let (mut first, mut last) = ([0; ROWS], [-1; ROWS]);
+        for r in 0..ROWS {
+            let row = y + r as u32;
+            if row < within.0 || row > within.1 {
+                continue;
+            }
+            if doubt[r] {
+                if let Some((a, b)) = self.row(row) {
+                    (first[r], last[r]) = (a as i32, b as i32);
+                }
+            } else {
+                // Within 0..=x1 when not empty; an empty row may hold anything.
+                (first[r], last[r]) = (lo[r] as i32, hi[r] as i32);
+            }
+        }
+        (first, last)
     }
 
     /// Inclusive x-range of the pixel centres of row `y` the triangle covers (exactly
@@ -176,13 +285,48 @@ impl Span {
         (self.x1 - self.x0 + 1) as usize
     }
 
+    /// The span's pixels rounded up to whole [`LANES`]: what the kernels read and
+    /// write from its first pixel. Buffers they run on keep `LANES - 1` pixels of
+    /// padding past their last row ([`padded_len`]), and a kernel leaves the lanes
+    /// past the span unchanged with a lane blend ([`Span::lanes_or`]), never a masked
+    /// load or store (microcoded on some CPUs, and the costliest part of a short span).
+    pub fn lanes_len(&self) -> usize {
+        self.pixels().next_multiple_of(LANES)
+    }
+
+    /// [`Span::lanes`] with the lanes past the span set to `outside` (lane `k` of the
+    /// chunk at `i` lies in the span iff `k < pixels - i`). Blended arithmetically
+    /// (`v·m + outside·(1 - m)` with `m` 1 or 0, both exact), which LLVM vectorizes;
+    /// a lane-wise `if` stays a branch per lane.
+    #[inline(always)]
+    pub fn lanes_or(&self, i: usize, outside: f32) -> [f32; LANES] {
+        let left = (self.pixels() - i) as f32;
+        let mut v = self.lanes(i);
+        for k in 0..LANES {
+            let m = (left - RAMP[k]).clamp(0.0, 1.0);
+            v[k] = v[k] * m + outside * (1.0 - m);
+        }
+        v
+    }
+
     /// `1/w` of pixels `x0 + i + k` for `k` in `0..LANES`, from an f64 base at `x0 + i`.
     #[inline(always)]
     pub fn lanes(&self, i: usize) -> [f32; LANES] {
         let base = (self.start + self.slope * i as f64) as f32;
         let s = self.slope as f32;
-        RAMP.map(|k| base + s * k)
+        // A plain loop: `RAMP.map` compiles to a spilled per-lane loop.
+        let mut v = [0.0; LANES];
+        for k in 0..LANES {
+            v[k] = base + s * RAMP[k];
+        }
+        v
     }
+}
+
+/// Length of a buffer of `pixels` that span kernels run on: [`LANES`]` - 1` pixels of
+/// padding, so that a row's last chunk stays inside it ([`Span::lanes_len`]).
+pub fn padded_len(pixels: usize) -> usize {
+    pixels + LANES - 1
 }
 
 /// The screen triangles of a world triangle (after near/far clipping), each ready to
@@ -207,7 +351,7 @@ pub fn span_triangles(
 /// generous bound (a thousand times the rounding of f64 sums and products of the
 /// coordinates) on how far the computed crossing and the reference's computed edge
 /// function can stray from the exact line, in pixels.
-#[inline]
+#[inline(always)]
 fn tie_band(ax: f64, c: f64) -> f64 {
     1e-12 * (ax.abs() + c.abs() + 1024.0)
 }
@@ -314,7 +458,18 @@ mod tests {
             };
             let s = SpanTriangle::new(t);
             for y in t.y0..=t.y1 {
-                assert_eq!(s.row(y), row_span_stepping(&t, y), "{t:?} row {y}");
+                let want = row_span_stepping(&t, y);
+                assert_eq!(s.row(y), want, "{t:?} row {y}");
+                let within = (t.y0, t.y1);
+                let block = |from: u32, r: usize| {
+                    let (lo, hi) = s.row_block(from, within);
+                    (lo[r] <= hi[r]).then(|| (lo[r] as u32, hi[r] as u32))
+                };
+                assert_eq!(block(y, 0), want, "{t:?} block at row {y}");
+                if y >= t.y0 + ROWS as u32 - 1 {
+                    let from = y + 1 - ROWS as u32;
+                    assert_eq!(block(from, ROWS - 1), want, "{t:?} row {y}");
+                }
                 rows += 1;
             }
         }
