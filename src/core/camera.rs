@@ -211,6 +211,60 @@ impl Camera {
     /// `None` if no part of the box is in front of the near plane or its rect is off
     /// screen: then the box covers no pixel centre.
     pub fn project_box(&self, b: &Aabb) -> Option<ScreenRect> {
+        self.project_box_in_front(b)
+            .unwrap_or_else(|| self.project_box_clipped(b))
+    }
+
+    /// [`Camera::project_box`] for a box wholly in front of the near plane (None
+    /// otherwise: then the box needs clipping). The same arithmetic as the general
+    /// path, operation for operation (glam's `Mat4 * Vec4` sums the columns in order;
+    /// `w = 1` multiplies exactly), laid out as eight corners side by side so that
+    /// the divisions and the min/max run lane-wise: the same rect, several times
+    /// faster (the box test's most frequent call).
+    #[inline]
+    fn project_box_in_front(&self, b: &Aabb) -> Option<Option<ScreenRect>> {
+        let m = &self.view;
+        let (mut x, mut y, mut d) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
+        for i in 0..8 {
+            let cx = if i & 1 == 0 { b.min.x } else { b.max.x };
+            let cy = if i & 2 == 0 { b.min.y } else { b.max.y };
+            let cz = if i & 4 == 0 { b.min.z } else { b.max.z };
+            x[i] = m.x_axis.x * cx + m.y_axis.x * cy + m.z_axis.x * cz + m.w_axis.x;
+            y[i] = m.x_axis.y * cx + m.y_axis.y * cy + m.z_axis.y * cz + m.w_axis.y;
+            d[i] = -(m.x_axis.z * cx + m.y_axis.z * cy + m.z_axis.z * cz + m.w_axis.z);
+        }
+        let (mut nearest, mut farthest) = (f32::INFINITY, f32::NEG_INFINITY);
+        for &d in &d {
+            nearest = nearest.min(d);
+            farthest = farthest.max(d);
+        }
+        if nearest < self.near || !farthest.is_finite() {
+            return None; // clipping needed (or no corner is a number: the general path)
+        }
+        let (w, h) = (self.width as f32, self.height as f32);
+        let (mut sx, mut sy) = ([0.0f32; 8], [0.0f32; 8]);
+        for i in 0..8 {
+            sx[i] = (x[i] * self.scale[0] / d[i] * 0.5 + 0.5) * w;
+            sy[i] = (0.5 - y[i] * self.scale[1] / d[i] * 0.5) * h;
+        }
+        let mut lo = [f32::INFINITY; 2];
+        let mut hi = [f32::NEG_INFINITY; 2];
+        for i in 0..8 {
+            lo = [lo[0].min(sx[i]), lo[1].min(sy[i])];
+            hi = [hi[0].max(sx[i]), hi[1].max(sy[i])];
+        }
+        Some(ScreenRect::from_bounds(
+            lo,
+            hi,
+            self.width,
+            self.height,
+            nearest,
+            farthest,
+        ))
+    }
+
+    /// [`Camera::project_box`], corner by corner, clipping at the near plane.
+    fn project_box_clipped(&self, b: &Aabb) -> Option<ScreenRect> {
         let corners = b.corners().map(|c| (self.view * c.extend(1.0)).truncate());
         let mut lo = [f32::INFINITY; 2];
         let mut hi = [f32::NEG_INFINITY; 2];
@@ -393,6 +447,50 @@ mod tests {
 
     fn cam() -> Camera {
         look_at(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, 200, 100)
+    }
+
+    #[test]
+    fn the_side_by_side_projection_equals_the_corner_by_corner_one() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let (mut in_front, mut clipped) = (0, 0);
+        for round in 0..20000 {
+            let eye = Vec3::new(
+                rng.random_range(-50.0..50.0),
+                rng.random_range(0.5..30.0),
+                rng.random_range(-50.0..50.0),
+            );
+            let target = eye
+                + Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-0.6..0.3),
+                    rng.random_range(-1.0..1.0),
+                );
+            let cam = look_at(eye, target, 960, 540);
+            let scale = [0.01, 1.0, 20.0][round % 3];
+            let c = Vec3::new(
+                rng.random_range(-60.0..60.0),
+                rng.random_range(-5.0..40.0),
+                rng.random_range(-60.0..60.0),
+            );
+            let e = Vec3::new(
+                rng.random_range(0.0..1.0),
+                rng.random_range(0.0..1.0),
+                rng.random_range(0.0..1.0),
+            ) * scale;
+            let b = Aabb::new(c - e, c + e);
+            match cam.project_box_in_front(&b) {
+                Some(r) => {
+                    assert_eq!(r, cam.project_box_clipped(&b), "{b:?} from {eye}");
+                    in_front += 1;
+                }
+                None => clipped += 1,
+            }
+        }
+        assert!(
+            in_front > 5000 && clipped > 1000,
+            "{in_front} in front, {clipped} not"
+        );
     }
 
     #[test]

@@ -27,6 +27,8 @@ use crate::core::scene::Scene;
 pub const REFINE_MARGIN: f32 = 1e-5;
 
 /// True if every pixel centre object `id` covers lies behind the map by the margin.
+/// (Compiled per SIMD level, like every loop here that cuts triangles into spans.)
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 pub fn hidden_per_pixel(map: &OcclusionMap, scene: &Scene, cam: &Camera, id: u32) -> bool {
     let rows = (0, cam.height - 1);
     let w = cam.width as usize;
@@ -49,7 +51,7 @@ pub fn hidden_per_pixel(map: &OcclusionMap, scene: &Scene, cam: &Camera, id: u32
 
 /// Whether the map lies in front of every fragment of the span by the margin (`occ`
 /// runs on to the span's [`Span::lanes_len`]; lanes past the span count as hidden).
-#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+#[inline(always)]
 fn span_hidden(occ: &[f32], s: &Span) -> bool {
     let k = 1.0 + REFINE_MARGIN;
     occ.chunks_exact(LANES).enumerate().all(|(n, c)| {
@@ -79,6 +81,17 @@ pub fn exact(buf: &mut IdBuffer, scene: &Scene, cam: &Camera, candidates: &[u32]
     buf.inv_w.resize(padded_len(n), 0.0);
     buf.ids.clear();
     buf.ids.resize(padded_len(n), u32::MAX);
+    draw_ids(buf, scene, cam, candidates);
+    let mut mask = empty_mask(scene.objects.len());
+    for &id in buf.ids[..n].iter().filter(|&&id| id != u32::MAX) {
+        set_bit(&mut mask, id);
+    }
+    mask
+}
+
+/// The ID buffer of [`exact`].
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn draw_ids(buf: &mut IdBuffer, scene: &Scene, cam: &Camera, candidates: &[u32]) {
     let rows = (0, cam.height - 1);
     let w = cam.width as usize;
     for &id in candidates {
@@ -93,16 +106,11 @@ pub fn exact(buf: &mut IdBuffer, scene: &Scene, cam: &Camera, candidates: &[u32]
             });
         }
     }
-    let mut mask = empty_mask(scene.objects.len());
-    for &id in buf.ids[..n].iter().filter(|&&id| id != u32::MAX) {
-        set_bit(&mut mask, id);
-    }
-    mask
 }
 
 /// Depth-tested write of `id` over the span's pixels (the buffers run on to the
 /// span's [`Span::lanes_len`]; lanes past the span are left as they are).
-#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+#[inline(always)]
 fn nearest_id(inv_w: &mut [f32], ids: &mut [u32], s: &Span, id: u32) {
     for (n, (dc, oc)) in inv_w
         .chunks_exact_mut(LANES)
