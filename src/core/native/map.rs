@@ -126,7 +126,7 @@ impl OcclusionMap {
             skipped += hidden as usize;
             !hidden
         });
-        setup_triangles(self, cam, rest.flat_map(front), &mut setup);
+        setup_triangles(self, cam, rest.flat_map(front), true, &mut setup);
         draw_binned(self, &setup);
         self.setup = setup;
         skipped
@@ -137,12 +137,7 @@ impl OcclusionMap {
     pub fn draw(&mut self, cam: &Camera, tris: impl Iterator<Item = [Vec3; 3]>) {
         let mut setup = std::mem::take(&mut self.setup);
         setup.clear();
-        for tri in tris {
-            span_triangles(cam, tri, |t| {
-                setup.push(*t);
-                true
-            });
-        }
+        setup_triangles(self, cam, tris, false, &mut setup);
         draw_binned(self, &setup);
         self.setup = setup;
     }
@@ -279,21 +274,22 @@ const SKIP_TEST_MIN_PIXELS: u32 = 64;
 /// its tiles are bounded. A multiple of [`TILE`].
 const BAND: u32 = 32;
 
-/// The screen triangles of `tris` for drawing into `map`, which is bounded and has
-/// only grown nearer since: a large triangle that the bounds show behind the map
-/// everywhere in its box is left out, since each of its fragments would lose to the
-/// pixel it falls on and the map ends the same. (Stale bounds only make that test
-/// answer "not hidden" more often.)
+/// The screen triangles of `tris` for drawing into `map`. With `skip_hidden` (the map
+/// is bounded and has only grown nearer since), a large triangle that the bounds show
+/// behind the map everywhere in its box is left out, since each of its fragments
+/// would lose to the pixel it falls on and the map ends the same. (Stale bounds only
+/// make that test answer "not hidden" more often.)
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn setup_triangles<I: Iterator<Item = [Vec3; 3]>>(
     map: &OcclusionMap,
     cam: &Camera,
     tris: I,
+    skip_hidden: bool,
     out: &mut Vec<SpanTriangle>,
 ) {
     for tri in tris {
         span_triangles(cam, tri, |t| {
-            if t.box_pixels() >= SKIP_TEST_MIN_PIXELS {
+            if skip_hidden && t.box_pixels() >= SKIP_TEST_MIN_PIXELS {
                 let (r, nearest) = t.bounds();
                 if map.rect_hidden(&r, nearest as f32) {
                     return true;

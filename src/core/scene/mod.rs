@@ -118,7 +118,11 @@ impl Scene {
     pub fn corners_of<'a>(&'a self, o: &Object) -> impl Iterator<Item = [Vec3; 3]> + 'a {
         self.triangles_of(o)
             .chunks_exact(3)
-            .map(|t| [0, 1, 2].map(|k| self.positions[t[k] as usize]))
+            // Spelled out: `[0, 1, 2].map(..)` stays a call per triangle.
+            .map(|t| {
+                let p = &self.positions;
+                [p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]]
+            })
     }
 
     pub fn triangle_count(&self) -> u64 {
