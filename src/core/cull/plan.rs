@@ -26,6 +26,7 @@ impl PosePlan {
     /// proves each of its in-frustum test boxes' screen rects hidden (a box behind the
     /// near plane shows nothing; an object's remaining boxes are skipped once one is
     /// visible). Every backend's box test is this loop with its own `hidden`.
+    #[inline]
     pub fn box_test(&self, scene: &Scene, mut hidden: impl FnMut(&ScreenRect) -> bool) -> Vec<u32> {
         let mut mask = empty_mask(scene.objects.len());
         for &b in &self.test_boxes {

@@ -13,6 +13,11 @@
 //! and only the tiles in between are read pixel by pixel. That is the conservative
 //! HOM test (opacity 1 at every level, raster DEB) answered exactly: the same answer
 //! as testing every pixel of the rect.
+//!
+//! Drawing is in two steps: the triangles are set up (clipped, projected, their edges
+//! prepared) into a list, then drawn band by band ([`BAND`] rows), so that a band's
+//! pixels stay in cache while every triangle reaching it writes them and its tiles
+//! are bounded. The map is bounded after every draw.
 
 use glam::Vec3;
 
@@ -196,6 +201,7 @@ impl OcclusionMap {
     /// True if every pixel of `r` holds a `1/w` above `t` (the map was bounded by
     /// [`OcclusionMap::build_bounds`]). `t = (1 + margin) / near` asks whether
     /// occluders lie in front of depth `near` everywhere; `t = 0` whether they cover.
+    #[inline]
     pub fn rect_hidden(&self, r: &ScreenRect, t: f32) -> bool {
         let (tx0, ty0) = (r.x0 / TILE, r.y0 / TILE);
         let (tx1, ty1) = ((r.x1 - 1) / TILE, (r.y1 - 1) / TILE);

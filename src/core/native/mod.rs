@@ -3,11 +3,20 @@
 //!
 //! Per pose ([`NativeBackend::pose_mask`]): the selected occluders are drawn into an
 //! occlusion map of the nearest `1/w` per pixel ([`map`]), in exact spans per row
-//! ([`span`]); the map is bounded per 8×8 tile and up a quadtree; each in-frustum
+//! ([`span`], four rows' span ends at a time), band by band, each band bounded per
+//! 8×8 tile as it is finished and the bounds carried up a quadtree; each in-frustum
 //! test box's screen rect is tested against it, and the objects whose boxes survive
-//! are re-tested per pixel of their own triangles ([`refine`]). `exact` is the same
-//! spans into an ID buffer. The poses of a batch run in parallel on rayon's pool
-//! (`--threads`), each on a map kept per thread.
+//! are re-tested per pixel of their own triangles ([`refine`]), a triangle at a time
+//! once the tile bounds cannot show it hidden whole. `exact` is the same spans into
+//! an ID buffer. The poses of a batch run in parallel on rayon's pool (`--threads`),
+//! each on a map kept per thread.
+//!
+//! Where the work is skipped, the answer is unchanged: an occluder or a triangle is
+//! left out of the draw only when the bounds show every fragment of it losing to the
+//! pixel it would fall on (the map is the per-pixel maximum, so the final map is bit
+//! for bit the full draw's, tested), and the refinement passes a triangle without
+//! its spans only when the bounds lie in front of its nearest vertex's `1/w`, the
+//! largest any of its fragments has, by the margin.
 //!
 //! Why it never culls what the oracle sees:
 //! 1. Coverage is the exact oracle's own: [`span::SpanTriangle::row`] accepts exactly
@@ -117,14 +126,7 @@ impl NativeBackend {
         p: &PosePlan,
         s: &CullSettings,
     ) -> Vec<u32> {
-        let raster = s.options.deb == DebVariant::Raster;
-        p.box_test(&prep.scene, |r| {
-            if raster {
-                map.rect_hidden(r, (1.0 + DEPTH_MARGIN) / r.near)
-            } else {
-                p.deb.all_in_front(r, r.near) && map.rect_hidden(r, 0.0)
-            }
-        })
+        box_test(map, prep, p, s.options.deb == DebVariant::Raster)
     }
 
     /// Approximate thresholds and HZB: the reference pyramid and test on this map.
@@ -143,6 +145,19 @@ impl NativeBackend {
         let (opacity, depth) = pyramid::build(&layout, &depth);
         ReferenceBackend::test_boxes(&prep.scene, p, s, &layout, &opacity, &depth)
     }
+}
+
+/// [`NativeBackend::test_boxes`], compiled per SIMD level: the box projection's eight
+/// corners then divide in one instruction.
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn box_test(map: &OcclusionMap, prep: &PreparedScene, p: &PosePlan, raster: bool) -> Vec<u32> {
+    p.box_test(&prep.scene, |r| {
+        if raster {
+            map.rect_hidden(r, (1.0 + DEPTH_MARGIN) / r.near)
+        } else {
+            p.deb.all_in_front(r, r.near) && map.rect_hidden(r, 0.0)
+        }
+    })
 }
 
 impl Culler for NativeBackend {

@@ -5,7 +5,9 @@
 //! spans as the occluders and the oracle (`span.rs`) and compares each fragment with
 //! the occlusion map, stopping at the first fragment that is not hidden: a visible
 //! object usually costs one span, a hidden one is proven hidden only by all of its
-//! fragments. A fragment is hidden when the map lies in front of it by the depth
+//! fragments, or, a triangle at a time, by the map's tile bounds lying in front of
+//! the triangle's nearest vertex by the margin (`1/w` is a plane over the triangle,
+//! so no fragment is nearer than its nearest vertex). A fragment is hidden when the map lies in front of it by the depth
 //! margin ([`REFINE_MARGIN`], compared as `1/w`): the map and the fragment come
 //! from one rasterizer's arithmetic but not from the oracle's, and the margin is what
 //! keeps a tie, or a difference in the last bits, from ever culling.

@@ -1,5 +1,5 @@
 // Shared by every homcull kernel: the pose layout and the box projection.
-// Twin of `camera.rs` (PoseUniform, Camera::project_box, ScreenRect::from_bounds)
+// Twin of `camera/mod.rs` (PoseUniform, Camera::project_box, ScreenRect::from_bounds)
 // and `cull::deb::in_front`; keep the arithmetic identical.
 
 struct PoseUniform {
