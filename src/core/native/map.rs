@@ -369,11 +369,16 @@ fn keep_nearest(dst: &mut [f32], s: &Span) {
 /// `c[k] = max(c[k], v[k])` for `1/w` values: compared as the integers of their bits,
 /// which order non-negative floats as the floats do (a negative `v` never wins, and
 /// the map holds no negative value). One integer `max` per lane, where `f32::max`
-/// adds NaN handling (and a compare and select becomes a masked store).
+/// adds NaN handling (and a compare and select becomes a masked store). A lane that
+/// is not a finite number (its bits would win) is dropped as 0: a lane is a value of
+/// a plane that lies between its vertices' `1/w` (at most `1/near`), so that takes a
+/// slope past f32's range, which f64 coordinates of a triangle covering a pixel
+/// centre do not give; should it happen, the map stays as it was, never nearer.
 #[inline(always)]
 fn keep_larger(c: &mut [f32], v: &[f32; LANES]) {
     for k in 0..LANES {
-        let larger = (c[k].to_bits() as i32).max(v[k].to_bits() as i32);
+        let v = if v[k] < f32::INFINITY { v[k] } else { 0.0 };
+        let larger = (c[k].to_bits() as i32).max(v.to_bits() as i32);
         c[k] = f32::from_bits(larger as u32);
     }
 }
