@@ -198,6 +198,17 @@ impl OcclusionMap {
         }
     }
 
+    /// True if the tile bounds show every fragment of `t` behind the map by the
+    /// relative `margin`: its largest `1/w` (at a vertex, `1/w` being a plane over the
+    /// triangle; [`SpanTriangle::bounds`]) times `1 + margin` lies below every pixel
+    /// of its box. Stale bounds of a map that has only grown nearer since are fine:
+    /// they can only answer false more often.
+    #[inline]
+    pub fn triangle_hidden(&self, t: &SpanTriangle, margin: f64) -> bool {
+        let (r, nearest) = t.bounds();
+        self.rect_hidden(&r, (nearest * (1.0 + margin)) as f32)
+    }
+
     /// True if every pixel of `r` holds a `1/w` above `t` (the map was bounded by
     /// [`OcclusionMap::build_bounds`]). `t = (1 + margin) / near` asks whether
     /// occluders lie in front of depth `near` everywhere; `t = 0` whether they cover.
@@ -295,13 +306,12 @@ fn setup_triangles<I: Iterator<Item = [Vec3; 3]>>(
 ) {
     for tri in tris {
         span_triangles(cam, tri, |t| {
-            if skip_hidden && t.box_pixels() >= SKIP_TEST_MIN_PIXELS {
-                let (r, nearest) = t.bounds();
-                if map.rect_hidden(&r, nearest as f32) {
-                    return true;
-                }
+            let hidden = skip_hidden
+                && t.box_pixels() >= SKIP_TEST_MIN_PIXELS
+                && map.triangle_hidden(t, 0.0);
+            if !hidden {
+                out.push(*t);
             }
-            out.push(*t);
             true
         });
     }

@@ -7,8 +7,9 @@
 //! object usually costs one span, a hidden one is proven hidden only by all of its
 //! fragments, or, a triangle at a time, by the map's tile bounds lying in front of
 //! the triangle's nearest vertex by the margin (`1/w` is a plane over the triangle,
-//! so no fragment is nearer than its nearest vertex). A fragment is hidden when the map lies in front of it by the depth
-//! margin ([`REFINE_MARGIN`], compared as `1/w`): the map and the fragment come
+//! so no fragment is nearer than its nearest vertex). A fragment is hidden when the
+//! map lies in front of it by the depth margin ([`REFINE_MARGIN`], compared as
+//! `1/w`): the map and the fragment come
 //! from one rasterizer's arithmetic but not from the oracle's, and the margin is what
 //! keeps a tie, or a difference in the last bits, from ever culling.
 
@@ -37,10 +38,9 @@ pub fn hidden_per_pixel(map: &OcclusionMap, scene: &Scene, cam: &Camera, id: u32
     let o = &scene.objects[id as usize];
     scene.corners_of(o).all(|tri| {
         span_triangles(cam, tri, |t| {
-            // A triangle that lies behind the map's tile bounds everywhere in its box
-            // needs no spans: every fragment would pass the per-pixel test below.
-            let (r, nearest) = t.bounds();
-            if map.rect_hidden(&r, (nearest * (1.0 + REFINE_MARGIN as f64)) as f32) {
+            // A triangle the tile bounds show hidden by the margin needs no spans:
+            // every fragment would pass the per-pixel test below.
+            if map.triangle_hidden(t, REFINE_MARGIN as f64) {
                 return true;
             }
             t.spans(rows, |y, s| {

@@ -47,6 +47,27 @@ struct EdgeSetup {
     slope: f64,
 }
 
+impl EdgeSetup {
+    /// Where the edge crosses the row through `py`, in pixel-index units: pixel `x`
+    /// lies on the inner side iff `x > c` (or `x < c`, as the edge leans), up to the
+    /// rounding that [`tie_band`] bounds.
+    #[inline(always)]
+    fn crossing(&self, py: f64) -> f64 {
+        self.a.x + self.slope * (py - self.a.y) - 0.5
+    }
+
+    /// Whether no pixel index lies within the tie band of crossing `c`, whose floor is
+    /// `below`, nor is `c` NaN or huge: then `below` settles the side of every pixel
+    /// of the row and no edge function needs evaluating.
+    #[inline(always)]
+    fn clear_of_ties(&self, c: f64, below: f64) -> bool {
+        let frac = c - below;
+        let band = tie_band(self.a.x, c);
+        // NaN fails every comparison.
+        frac > band && frac < 1.0 - band && c.abs() < 1e15
+    }
+}
+
 /// A screen triangle with what its spans need: coverage setup and `1/w` gradient.
 #[derive(Clone, Copy)]
 pub struct SpanTriangle {
@@ -175,13 +196,9 @@ impl SpanTriangle {
             }
             let mut below = [0.0; ROWS];
             for r in 0..ROWS {
-                let c = e.a.x + e.slope * (py[r] - e.a.y) - 0.5;
+                let c = e.crossing(py[r]);
                 below[r] = c.floor();
-                let frac = c - below[r];
-                let band = tie_band(e.a.x, c);
-                // NaN fails every comparison; a huge crossing is left to `row` too.
-                let clear = frac > band && frac < 1.0 - band && c.abs() < 1e15;
-                doubt[r] |= !clear;
+                doubt[r] |= !e.clear_of_ties(c, below[r]);
             }
             if e.q < 0.0 {
                 for r in 0..ROWS {
@@ -239,14 +256,12 @@ impl SpanTriangle {
                 }
                 continue;
             }
-            let c = e.a.x + e.slope * (py - e.a.y) - 0.5;
+            let c = e.crossing(py);
             if c.is_nan() || c.abs() >= 1e15 {
                 return row_span_stepping(t, y);
             }
             let below = c.floor();
-            let frac = c - below;
-            let band = tie_band(e.a.x, c);
-            if frac > band && frac < 1.0 - band {
+            if e.clear_of_ties(c, below) {
                 // No pixel index is near c: inside is exactly x > c (or x < c).
                 if e.q < 0.0 {
                     lo = lo.max(below + 1.0);
@@ -255,7 +270,7 @@ impl SpanTriangle {
                 }
             } else {
                 // A near tie at the nearest index n: the reference's predicate decides n.
-                let n = if frac < 0.5 { below } else { below + 1.0 };
+                let n = if c - below < 0.5 { below } else { below + 1.0 };
                 if e.q < 0.0 {
                     lo = lo.max(if inside(n) { n } else { n + 1.0 });
                 } else {
