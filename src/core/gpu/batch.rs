@@ -1,38 +1,37 @@
 //! [`GpuBackend`]: all passes of a batch of poses in one submission, one readback.
 //!
-//! Poses are processed in groups of up to [`super::targets::MAX_SLOTS`] that share
-//! per-slot targets (a texture array layer and a pyramid region per pose), so memory
-//! stays bounded however large the batch: group g's raster, pyramid and test passes
-//! are recorded before group g+1's, and wgpu orders them. Every pose writes its own
-//! region of one visibility bitmask, copied back once at the end.
+//! Poses are processed in groups of up to [`SlotTargets::slots`] (up to
+//! [`super::targets::MAX_SLOTS`]) that share one atlas, a viewport-sized slot per pose,
+//! so memory stays bounded however large the batch. A group is a fixed number of
+//! passes whatever its size: one occluder render pass, the pyramid's dispatches, one
+//! box-test dispatch, and for the refinement one filter dispatch and one render pass
+//! (or, for the exact oracle, one ID render pass and one collect dispatch). Every pose
+//! writes its own region of one visibility bitmask, copied back once at the end.
 //!
-//! A batch is recorded in three steps: [`BatchInputs`] (what every method uploads: pose
-//! uniforms, the bitmask, the groups and their draws), then the method's passes
+//! A batch is recorded in three steps: [`BatchInputs::write`] (what every pass reads,
+//! written into buffers kept between batches), then the method's passes
 //! ([`GpuBackend::record_exact`] or [`GpuBackend::record_occlusion`]), then one
 //! submission and readback ([`GpuBackend::read_masks`]).
 
 use std::sync::Arc;
 
 use homcull_proto::Method;
-use wgpu::util::DeviceExt;
 
+use super::arena::next_resource_id;
 use super::context::GpuContext;
+use super::counted::Encoder;
 use super::device::GpuError;
-use super::encode::{UNIFORM_SLOT, slotted, storage_buffer, uniform_slot};
+use super::inputs::BatchInputs;
 use super::passes::SharedPasses;
 use super::profile::Stamps;
 use super::pyramid::buffer_levels;
-use super::raster::{DrawList, RasterKind, indirect_draws, object_draws};
-use super::readback::{read_buffer, read_occlusion};
-use super::refine::RefineBatch;
+use super::raster::RasterKind;
+use super::readback::{read_buffer, read_into, read_occlusion};
 use super::scene_buffers::SceneBuffers;
 use super::targets::SlotTargets;
-use super::test::{GroupParams, TestConfig};
-use crate::core::camera::PoseUniform;
 use crate::core::cull::{
-    CullError, CullSettings, Culler, Pass, PassTimes, PosePlan, PreparedScene, words_per_pose,
+    CullError, CullSettings, Culler, Pass, PassTimes, PosePlan, PreparedScene,
 };
-use crate::core::hom::level_thresholds;
 
 /// The GPU culler of one scene: its buffers, and the device's shared passes.
 pub struct GpuBackend {
@@ -43,12 +42,38 @@ pub struct GpuBackend {
     draws: Vec<(u32, u32)>,
     /// GPU time per pass since profiling started (`Some` while profiling).
     profile: Option<PassTimes>,
+    /// Buffers and bind groups kept between batches.
+    inputs: BatchInputs,
+}
+
+/// Locks the shared atlas (serialising batches on this device), sized for `width` ×
+/// `height`.
+fn lock_targets<'p>(
+    ctx: &GpuContext,
+    passes: &'p SharedPasses,
+    width: u32,
+    height: u32,
+) -> std::sync::MutexGuard<'p, Option<SlotTargets>> {
+    let mut t = passes.targets.lock().unwrap_or_else(|p| p.into_inner());
+    if t.as_ref()
+        .is_none_or(|t| (t.width, t.height) != (width, height))
+    {
+        *t = None; // free the old targets before allocating new ones
+        *t = Some(SlotTargets::new(
+            ctx,
+            &passes.pyramid,
+            width,
+            height,
+            next_resource_id(),
+        ));
+    }
+    t
 }
 
 impl GpuBackend {
     pub fn new(ctx: Arc<GpuContext>, prep: &PreparedScene) -> Self {
         GpuBackend {
-            scene: SceneBuffers::new(&ctx.device, &prep.scene),
+            scene: SceneBuffers::new(&ctx, &prep.scene),
             passes: ctx.passes(),
             draws: prep
                 .scene
@@ -57,34 +82,13 @@ impl GpuBackend {
                 .map(|o| (o.first_index, o.index_count))
                 .collect(),
             profile: None,
+            inputs: BatchInputs::new(),
             ctx,
         }
     }
 
     pub fn context(&self) -> &GpuContext {
         &self.ctx
-    }
-
-    /// Locks the shared slot targets (serialising batches on this device), sized for
-    /// `width` × `height`.
-    fn targets(&self, width: u32, height: u32) -> std::sync::MutexGuard<'_, Option<SlotTargets>> {
-        let mut t = self
-            .passes
-            .targets
-            .lock()
-            .unwrap_or_else(|p| p.into_inner());
-        if t.as_ref()
-            .is_none_or(|t| (t.width, t.height) != (width, height))
-        {
-            *t = None; // free the old targets before allocating new ones
-            *t = Some(SlotTargets::new(
-                &self.ctx.device,
-                &self.passes.pyramid,
-                width,
-                height,
-            ));
-        }
-        t
     }
 
     /// Runs the occluder raster and pyramid of one group of plans (at most one group
@@ -96,20 +100,21 @@ impl GpuBackend {
         plans: &[PosePlan],
         s: &CullSettings,
     ) -> Result<(Vec<f32>, Vec<f32>), GpuError> {
-        let guard = self.targets(plans[0].cam.width, plans[0].cam.height);
-        let slots = guard.as_ref().expect("targets exist").slots;
-        if plans.len() > slots as usize {
+        let passes = Arc::clone(&self.passes);
+        let guard = lock_targets(&self.ctx, &passes, plans[0].cam.width, plans[0].cam.height);
+        let t = guard.as_ref().expect("targets exist");
+        if plans.len() > t.slots as usize {
             return Err(GpuError::Readback(format!(
-                "{} poses do not fit the {slots} pyramid slots",
-                plans.len()
+                "{} poses do not fit the {} pyramid slots",
+                plans.len(),
+                t.slots
             )));
         }
-        self.record_with(guard.as_ref().expect("targets exist"), plans, s, false)?;
-        let t = guard.as_ref().expect("targets exist after a batch");
+        self.record_with(t, plans, s, false)?;
         let n = plans.len();
         let (_, stride) = buffer_levels(&t.layout);
         let read = |buffer| -> Result<Vec<f32>, GpuError> {
-            let enc = self.ctx.device.create_command_encoder(&Default::default());
+            let enc = self.ctx.encoder();
             let bytes = read_buffer(&self.ctx, enc, buffer, stride as u64 * n as u64 * 4)?;
             Ok(bytemuck::pod_collect_to_vec(&bytes))
         };
@@ -136,8 +141,9 @@ impl GpuBackend {
         s: &CullSettings,
     ) -> Result<Vec<Vec<u32>>, GpuError> {
         let profile = self.profile.is_some();
+        let passes = Arc::clone(&self.passes);
         let (masks, times) = {
-            let guard = self.targets(plans[0].cam.width, plans[0].cam.height);
+            let guard = lock_targets(&self.ctx, &passes, plans[0].cam.width, plans[0].cam.height);
             self.record_with(guard.as_ref().expect("targets exist"), plans, s, profile)?
         };
         if let (Some(total), Some(t)) = (&mut self.profile, times) {
@@ -149,10 +155,10 @@ impl GpuBackend {
         Ok(masks)
     }
 
-    /// Records, submits and reads back one batch on the (locked) slot targets `t`;
-    /// with `profile` (and timestamp support), also its GPU time per pass.
+    /// Records, submits and reads back one batch on the (locked) atlas `t`; with
+    /// `profile` (and timestamp support), also its GPU time per pass.
     fn record_with(
-        &self,
+        &mut self,
         t: &SlotTargets,
         plans: &[PosePlan],
         s: &CullSettings,
@@ -160,136 +166,113 @@ impl GpuBackend {
     ) -> Result<(Vec<Vec<u32>>, Option<PassTimes>), GpuError> {
         let started = std::time::Instant::now();
         let exact = s.options.method == Method::Exact;
-        let inputs = BatchInputs::new(self, t, plans, exact);
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        let stamps_per_group = if exact { 2 } else { 3 + s.refines() as u32 };
-        let mut stamps = if profile && self.ctx.timestamps {
-            Stamps::new(
-                &self.ctx.device,
-                1 + inputs.groups.len() as u32 * stamps_per_group,
-            )
+        // The encoder borrows the context's counters, not `self` (read_masks takes it).
+        let ctx = Arc::clone(&self.ctx);
+        let ctx = &*ctx;
+        self.inputs
+            .write(ctx, &self.passes, t, &self.scene, &self.draws, plans, s);
+        let inputs = &self.inputs;
+        let mut encoder = ctx.encoder();
+        encoder
+            .raw
+            .clear_buffer(inputs.mask.get(), 0, Some(inputs.mask_bytes()));
+        let refines = !exact && s.refines();
+        if refines {
+            inputs.refine.clear(&mut encoder);
+        }
+        let stamps_per_group = if exact { 2 } else { 3 + refines as u32 };
+        let mut stamps = if profile && ctx.timestamps {
+            Stamps::new(ctx, 1 + inputs.groups.len() as u32 * stamps_per_group)
         } else {
             None
         };
         mark(&mut stamps, &mut encoder, None);
-        let refined = if exact {
-            self.record_exact(&mut encoder, t, &inputs, &mut stamps);
-            None
+        if exact {
+            self.record_exact(&mut encoder, t, &mut stamps);
         } else {
-            self.record_occlusion(&mut encoder, t, &inputs, plans, s, &mut stamps)
-        };
+            self.record_occlusion(&mut encoder, t, refines, &mut stamps);
+        }
         tracing::debug!(
             target: "homcull::timing",
             poses = plans.len(),
             record_ms = started.elapsed().as_secs_f64() * 1e3,
             "recorded a batch"
         );
-        let result = refined.as_ref().unwrap_or(&inputs.mask);
-        self.read_masks(encoder, result, &inputs, stamps.as_ref())
+        self.read_masks(encoder, refines, stamps.as_ref())
     }
 
-    /// The exact oracle: every candidate rasterized into the ID buffer, then collected.
+    /// The exact oracle: per group, every candidate rasterized into the ID atlas (one
+    /// render pass), then collected (one dispatch).
     fn record_exact(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
+        encoder: &mut Encoder<'_>,
         t: &SlotTargets,
-        inputs: &BatchInputs,
         stamps: &mut Option<Stamps>,
     ) {
-        let device = &self.ctx.device;
-        let ids = t.ids(device);
-        let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("oracle"),
-            layout: &self.passes.oracle.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: uniform_slot(&inputs.group_buf),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&ids.array),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: inputs.mask.as_entire_binding(),
-                },
-            ],
-        });
+        let inputs = &self.inputs;
+        let pose_bg = inputs.pose_bind_group();
         for (g, &(a, b)) in inputs.groups.iter().enumerate() {
-            for p in a..b {
-                self.passes.raster.record(
-                    encoder,
-                    RasterKind::ObjectIds,
-                    &ids.layers[(p - a) as usize],
-                    &t.depth.layers[(p - a) as usize],
-                    &inputs.pose_bg,
-                    p,
-                    &self.scene,
-                    inputs.draw_list(p),
-                );
-            }
+            self.passes.raster.record_group(
+                encoder,
+                RasterKind::ObjectIds,
+                t,
+                pose_bg,
+                a..b,
+                &self.scene,
+                |p| inputs.draw_list(p),
+            );
             mark(stamps, encoder, Some(Pass::IdRaster));
-            self.passes
-                .oracle
-                .record(encoder, &bg, g as u32, t.width, t.height, b - a);
+            self.passes.oracle.record(
+                encoder,
+                inputs.oracle.bind_group(),
+                g as u32,
+                t.width,
+                t.height,
+                b - a,
+            );
             mark(stamps, encoder, Some(Pass::Collect));
         }
     }
 
-    /// HOM or HZB: occluder raster, pyramid and box test per group, and the refinement
-    /// when the settings ask for it. Returns the refined bitmask, if any.
+    /// HOM or HZB: per group, the occluder raster, the pyramid and the box test, and
+    /// the refinement when `refines`.
     fn record_occlusion(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
+        encoder: &mut Encoder<'_>,
         t: &SlotTargets,
-        inputs: &BatchInputs,
-        plans: &[PosePlan],
-        s: &CullSettings,
+        refines: bool,
         stamps: &mut Option<Stamps>,
-    ) -> Option<wgpu::Buffer> {
-        let test_bg = self.test_bind_group(t, inputs, plans, s);
-        let refine = s.refines().then(|| {
-            RefineBatch::new(
-                &self.ctx,
-                &self.passes.refine,
-                &self.draws,
-                plans,
-                &inputs.groups,
-                &inputs.mask,
-                &t.occlusion.array,
-                inputs.words,
-            )
-        });
+    ) {
+        let inputs = &self.inputs;
+        let pose_bg = inputs.pose_bind_group();
         for (g, &(a, b)) in inputs.groups.iter().enumerate() {
-            for p in a..b {
-                self.passes.raster.record(
-                    encoder,
-                    RasterKind::OccluderDepth,
-                    &t.occlusion.layers[(p - a) as usize],
-                    &t.depth.layers[(p - a) as usize],
-                    &inputs.pose_bg,
-                    p,
-                    &self.scene,
-                    inputs.draw_list(p),
-                );
-            }
+            self.passes.raster.record_group(
+                encoder,
+                RasterKind::OccluderDepth,
+                t,
+                pose_bg,
+                a..b,
+                &self.scene,
+                |p| inputs.draw_list(p),
+            );
             mark(stamps, encoder, Some(Pass::OccluderRaster));
             self.passes
                 .pyramid
                 .record(encoder, &t.pyramid_bg, &t.layout, b - a);
             mark(stamps, encoder, Some(Pass::Pyramid));
-            self.passes
-                .test
-                .record(encoder, &test_bg, g as u32, inputs.group_params[g].b);
+            self.passes.test.record(
+                encoder,
+                inputs.test.bind_group(),
+                g as u32,
+                inputs.test.counts[g],
+            );
             mark(stamps, encoder, Some(Pass::BoxTest));
-            if let Some(r) = &refine {
-                let group_depth = &t.depth.layers[..(b - a) as usize];
-                r.record(
+            if refines {
+                inputs.refine.record(
                     &self.passes.refine,
                     encoder,
-                    group_depth,
-                    &inputs.pose_bg,
+                    t,
+                    pose_bg,
                     &self.scene,
                     g,
                     a..b,
@@ -297,85 +280,26 @@ impl GpuBackend {
                 mark(stamps, encoder, Some(Pass::Refine));
             }
         }
-        refine.map(|r| r.refined)
     }
 
-    /// The box test's bind group: its config, the candidates' test boxes, the DEB tiles,
-    /// the pyramids and the bitmask.
-    fn test_bind_group(
-        &self,
-        t: &SlotTargets,
-        inputs: &BatchInputs,
-        plans: &[PosePlan],
-        s: &CullSettings,
-    ) -> wgpu::BindGroup {
-        let device = &self.ctx.device;
-        let deb0 = &plans[0].deb;
-        let cfg = TestConfig::new(
-            s.options.method,
-            s.options.deb,
-            &t.layout,
-            &level_thresholds(s.options.threshold, t.layout.levels()),
-            deb0.tile,
-            deb0.cols,
-            deb0.rows,
-            inputs.words,
-        );
-        let cfg_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("test config"),
-            contents: bytemuck::bytes_of(&cfg),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let deb_tiles: Vec<f32> = plans
-            .iter()
-            .flat_map(|p| p.deb.depth.iter().copied())
-            .collect();
-        let cand_buf = storage_buffer(
-            device,
-            "candidates",
-            bytemuck::cast_slice(&inputs.candidates),
-        );
-        let deb_buf = storage_buffer(device, "deb tiles", bytemuck::cast_slice(&deb_tiles));
-        let resources = [
-            cfg_buf.as_entire_binding(),
-            uniform_slot(&inputs.group_buf),
-            inputs.poses.as_entire_binding(),
-            self.scene.boxes.as_entire_binding(),
-            cand_buf.as_entire_binding(),
-            deb_buf.as_entire_binding(),
-            t.opacity.as_entire_binding(),
-            t.pyramid_depth.as_entire_binding(),
-            inputs.mask.as_entire_binding(),
-            wgpu::BindingResource::TextureView(&t.occlusion.array),
-        ];
-        let entries: Vec<wgpu::BindGroupEntry> = resources
-            .into_iter()
-            .enumerate()
-            .map(|(binding, resource)| wgpu::BindGroupEntry {
-                binding: binding as u32,
-                resource,
-            })
-            .collect();
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("test"),
-            layout: &self.passes.test.layout,
-            entries: &entries,
-        })
-    }
-
-    /// Submits the batch, reads back the bitmask `result` (one region per pose) and,
-    /// when profiling, the timestamps.
+    /// Submits the batch, reads back its bitmask (the refined one when `refined`; one
+    /// region per pose) and, when profiling, the timestamps.
     fn read_masks(
-        &self,
-        mut encoder: wgpu::CommandEncoder,
-        result: &wgpu::Buffer,
-        inputs: &BatchInputs,
+        &mut self,
+        mut encoder: Encoder<'_>,
+        refined: bool,
         stamps: Option<&Stamps>,
     ) -> Result<(Vec<Vec<u32>>, Option<PassTimes>), GpuError> {
-        let poses = inputs.poses_count;
-        let words = inputs.words;
+        let inputs = &mut self.inputs;
+        let (poses, words) = (inputs.poses_count, inputs.words);
         let resolved = stamps.map(|st| st.resolve(&mut encoder));
-        let bytes = read_buffer(&self.ctx, encoder, result, (poses * words) as u64 * 4)?;
+        let result = if refined {
+            inputs.refine.refined.get()
+        } else {
+            inputs.mask.get()
+        };
+        let size = (poses * words) as u64 * 4;
+        let bytes = read_into(&self.ctx, encoder, result, size, &mut inputs.readback)?;
         let all: &[u32] = bytemuck::cast_slice(&bytes);
         let masks = all
             .chunks_exact(words as usize)
@@ -383,7 +307,7 @@ impl GpuBackend {
             .collect();
         let times = match (stamps, resolved) {
             (Some(st), Some((buffer, size))) => {
-                let encoder = self.ctx.device.create_command_encoder(&Default::default());
+                let encoder = self.ctx.encoder();
                 let ticks = read_buffer(&self.ctx, encoder, buffer, size)?;
                 let mut times = PassTimes {
                     poses: poses as u64,
@@ -400,140 +324,9 @@ impl GpuBackend {
 }
 
 /// Writes a timestamp closing `pass` (or the opening one) when profiling.
-fn mark(stamps: &mut Option<Stamps>, encoder: &mut wgpu::CommandEncoder, pass: Option<Pass>) {
+fn mark(stamps: &mut Option<Stamps>, encoder: &mut Encoder<'_>, pass: Option<Pass>) {
     if let Some(st) = stamps {
         st.mark(encoder, pass);
-    }
-}
-
-/// What every method of a batch uploads: the pose uniforms and their bind group, the
-/// visibility bitmask, the groups of poses sharing the slots with their box-test
-/// candidates, and each pose's draws (all candidates for the oracle, else occluders).
-struct BatchInputs {
-    poses_count: u32,
-    words: u32,
-    poses: wgpu::Buffer,
-    pose_bg: wgpu::BindGroup,
-    mask: wgpu::Buffer,
-    /// `(first pose, end pose)` of every group.
-    groups: Vec<(u32, u32)>,
-    /// `[pose, test box]` of every box test, group after group.
-    candidates: Vec<[u32; 2]>,
-    group_params: Vec<GroupParams>,
-    group_buf: wgpu::Buffer,
-    /// One indirect multi-draw range per pose, or the direct draws per pose.
-    draws: Draws,
-}
-
-enum Draws {
-    Indirect(wgpu::Buffer, Vec<(u32, u32)>),
-    Direct(Vec<Vec<(u32, u32, u32)>>),
-}
-
-impl BatchInputs {
-    fn new(backend: &GpuBackend, t: &SlotTargets, plans: &[PosePlan], exact: bool) -> Self {
-        let device = &backend.ctx.device;
-        let (w, h) = (t.width, t.height);
-        let poses_count = plans.len() as u32;
-        let words = words_per_pose(backend.draws.len()) as u32;
-        let pose_uniforms: Vec<PoseUniform> = plans
-            .iter()
-            .map(|p| PoseUniform::new(&p.cam, p.deb.depth[0]))
-            .collect();
-        let poses = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("poses"),
-            contents: &slotted(&pose_uniforms),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE,
-        });
-        let pose_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("pose"),
-            layout: &backend.passes.raster.pose_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &poses,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(UNIFORM_SLOT),
-                }),
-            }],
-        });
-        let mask = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("visibility mask"),
-            size: (poses_count * words) as u64 * 4,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let groups: Vec<(u32, u32)> = (0..poses_count)
-            .step_by(t.slots as usize)
-            .map(|a| (a, (a + t.slots).min(poses_count)))
-            .collect();
-        let mut candidates: Vec<[u32; 2]> = Vec::new();
-        let mut group_params = Vec::new();
-        for &(a, b) in &groups {
-            let start = candidates.len() as u32;
-            for p in a..b {
-                candidates.extend(plans[p as usize].test_boxes.iter().map(|&bx| [p, bx]));
-            }
-            let count = candidates.len() as u32 - start;
-            group_params.push(if exact {
-                GroupParams {
-                    a: w,
-                    b: h,
-                    c: words,
-                    d: a,
-                }
-            } else {
-                GroupParams {
-                    a: start,
-                    b: count,
-                    c: a,
-                    d: 0,
-                }
-            });
-        }
-        let group_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("group params"),
-            contents: &slotted(&group_params),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let drawn = |p: &PosePlan| {
-            let ids = if exact {
-                &p.candidates
-            } else {
-                &p.occluders.ids
-            };
-            object_draws(&backend.draws, ids)
-        };
-        let draws = if backend.ctx.indirect_draws {
-            let (buffer, ranges) =
-                indirect_draws(device, plans.iter().map(drawn), wgpu::BufferUsages::empty());
-            Draws::Indirect(buffer, ranges)
-        } else {
-            Draws::Direct(plans.iter().map(drawn).collect())
-        };
-        BatchInputs {
-            poses_count,
-            words,
-            poses,
-            pose_bg,
-            mask,
-            groups,
-            candidates,
-            group_params,
-            group_buf,
-            draws,
-        }
-    }
-
-    /// Pose `p`'s draws.
-    fn draw_list(&self, p: u32) -> DrawList<'_> {
-        match &self.draws {
-            Draws::Indirect(buffer, ranges) => {
-                let (first, count) = ranges[p as usize];
-                DrawList::Indirect(buffer, first, count)
-            }
-            Draws::Direct(lists) => DrawList::Direct(lists[p as usize].clone()),
-        }
     }
 }
 

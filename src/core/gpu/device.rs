@@ -59,6 +59,8 @@ pub struct GpuDevice {
     /// Timestamps can be written between passes (`TIMESTAMP_QUERY_INSIDE_ENCODERS`),
     /// so batches can be profiled pass by pass (`crate::core::gpu::profile`).
     pub timestamps: bool,
+    /// What has been created and recorded ([`GpuDevice::counts`]).
+    pub(crate) counters: super::counted::Counters,
 }
 
 impl GpuDevice {
@@ -134,6 +136,7 @@ impl GpuDevice {
             indirect_draws,
             early_depth_test,
             timestamps,
+            counters: Default::default(),
         })
     }
 

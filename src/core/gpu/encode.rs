@@ -1,7 +1,7 @@
 //! Binding-layout entries, uniform slots and the two dispatch shapes every compute pass
 //! here records.
 
-use wgpu::util::DeviceExt;
+use super::counted::Encoder;
 
 pub(crate) fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -33,7 +33,8 @@ pub(crate) fn uniform_entry(
     }
 }
 
-pub(crate) fn texture_array_entry(
+/// A 2-D texture read by a compute kernel (the atlases: `super::targets`).
+pub(crate) fn texture_entry(
     binding: u32,
     sample_type: wgpu::TextureSampleType,
 ) -> wgpu::BindGroupLayoutEntry {
@@ -42,7 +43,7 @@ pub(crate) fn texture_array_entry(
         visibility: wgpu::ShaderStages::COMPUTE,
         ty: wgpu::BindingType::Texture {
             sample_type,
-            view_dimension: wgpu::TextureViewDimension::D2Array,
+            view_dimension: wgpu::TextureViewDimension::D2,
             multisampled: false,
         },
         count: None,
@@ -54,7 +55,7 @@ pub(crate) fn texture_array_entry(
 /// dispatches wrap into rows of at most 65535 workgroups (the per-dimension limit), so
 /// kernels index `g.x + g.y · num_workgroups.x · wg`.
 pub(crate) fn record_wide(
-    encoder: &mut wgpu::CommandEncoder,
+    encoder: &mut Encoder<'_>,
     label: &str,
     pipeline: &wgpu::ComputePipeline,
     bind_group: &wgpu::BindGroup,
@@ -67,10 +68,7 @@ pub(crate) fn record_wide(
         return;
     }
     let groups = invocations.div_ceil(wg);
-    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some(label),
-        timestamp_writes: None,
-    });
+    let mut pass = encoder.compute_pass(label);
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, bind_group, &[(slot as u64 * UNIFORM_SLOT) as u32]);
     let x = groups.min(MAX_DIM);
@@ -82,7 +80,7 @@ pub(crate) fn record_wide(
 /// shape of the per-pixel passes (pyramid, oracle collect).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn record_grid(
-    encoder: &mut wgpu::CommandEncoder,
+    encoder: &mut Encoder<'_>,
     label: &str,
     pipeline: &wgpu::ComputePipeline,
     bind_group: &wgpu::BindGroup,
@@ -91,10 +89,7 @@ pub(crate) fn record_grid(
     height: u32,
     slots: u32,
 ) {
-    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some(label),
-        timestamp_writes: None,
-    });
+    let mut pass = encoder.compute_pass(label);
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, bind_group, &[(slot as u64 * UNIFORM_SLOT) as u32]);
     pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), slots);
@@ -113,21 +108,12 @@ pub(crate) fn slotted<T: bytemuck::Pod>(items: &[T]) -> Vec<u8> {
     out
 }
 
-/// A storage buffer holding `bytes` (16 zero bytes when empty: bindings may not be empty).
-pub(crate) fn storage_buffer(device: &wgpu::Device, label: &str, bytes: &[u8]) -> wgpu::Buffer {
-    let fallback = [0u8; 16];
-    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents: if bytes.is_empty() { &fallback } else { bytes },
-        usage: wgpu::BufferUsages::STORAGE,
-    })
-}
-
-/// A 16-byte uniform slot of `buffer` for dynamic-offset binding.
-pub(crate) fn uniform_slot(buffer: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
+/// One `T`-sized uniform slot of `buffer` for dynamic-offset binding.
+pub(crate) fn uniform_slot<T>(buffer: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
+    const { assert!(std::mem::size_of::<T>() as u64 <= UNIFORM_SLOT) };
     wgpu::BindingResource::Buffer(wgpu::BufferBinding {
         buffer,
         offset: 0,
-        size: wgpu::BufferSize::new(16),
+        size: wgpu::BufferSize::new(std::mem::size_of::<T>() as u64),
     })
 }

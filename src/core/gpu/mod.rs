@@ -25,10 +25,13 @@
 //!
 //! Tests run every pass and its CPU twin on the same input.
 
+pub mod arena;
 pub mod batch;
 pub mod context;
+pub mod counted;
 pub mod device;
 pub mod encode;
+pub mod inputs;
 pub mod oracle;
 pub mod passes;
 pub mod profile;
@@ -42,5 +45,6 @@ pub mod test;
 
 pub use batch::GpuBackend;
 pub use context::{GpuContext, open_gpu, require_gpu};
+pub use counted::RecordCounts;
 pub use device::{GpuDevice, GpuError, GpuOptions};
 pub use encode::UNIFORM_SLOT;

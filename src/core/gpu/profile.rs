@@ -10,6 +10,8 @@
 //! Profiling costs one query resolve and one extra readback per batch, which is why
 //! it is off unless asked for.
 
+use super::counted::Encoder;
+use super::device::GpuDevice;
 use crate::core::cull::{Pass, PassTimes};
 
 /// The timestamps of one batch being recorded.
@@ -23,16 +25,16 @@ pub(crate) struct Stamps {
 
 impl Stamps {
     /// Room for `capacity` stamps, or `None` when that exceeds a query set's limit.
-    pub(crate) fn new(device: &wgpu::Device, capacity: u32) -> Option<Self> {
+    pub(crate) fn new(gpu: &GpuDevice, capacity: u32) -> Option<Self> {
         if capacity == 0 || capacity > wgpu::QUERY_SET_MAX_QUERIES {
             return None;
         }
-        let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+        let set = gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
             label: Some("pass timestamps"),
             ty: wgpu::QueryType::Timestamp,
             count: capacity,
         });
-        let resolved = device.create_buffer(&wgpu::BufferDescriptor {
+        let resolved = gpu.buffer(&wgpu::BufferDescriptor {
             label: Some("pass timestamps resolved"),
             size: capacity as u64 * wgpu::QUERY_SIZE as u64,
             usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
@@ -47,17 +49,19 @@ impl Stamps {
     }
 
     /// Writes a stamp closing `pass` (`None` opens the batch).
-    pub(crate) fn mark(&mut self, encoder: &mut wgpu::CommandEncoder, pass: Option<Pass>) {
+    pub(crate) fn mark(&mut self, encoder: &mut Encoder<'_>, pass: Option<Pass>) {
         let i = self.closes.len() as u32;
         assert!(i < self.capacity, "more pass stamps than reserved");
-        encoder.write_timestamp(&self.set, i);
+        encoder.raw.write_timestamp(&self.set, i);
         self.closes.push(pass);
     }
 
     /// Resolves the stamps written so far; returns the buffer and its byte length.
-    pub(crate) fn resolve(&self, encoder: &mut wgpu::CommandEncoder) -> (&wgpu::Buffer, u64) {
+    pub(crate) fn resolve(&self, encoder: &mut Encoder<'_>) -> (&wgpu::Buffer, u64) {
         let n = self.closes.len() as u32;
-        encoder.resolve_query_set(&self.set, 0..n, &self.resolved, 0);
+        encoder
+            .raw
+            .resolve_query_set(&self.set, 0..n, &self.resolved, 0);
         (&self.resolved, n as u64 * wgpu::QUERY_SIZE as u64)
     }
 

@@ -1,14 +1,13 @@
 //! Occlusion pyramid pass: two levels per dispatch (`pyramid.wgsl`), every pose slot
-//! of a group at once (z = slot), so a 960×540 pyramid of 11 levels takes five
+//! of a group at once (z = slot, level 0 read from the slot's rectangle of the atlas), so a 960×540 pyramid of 11 levels takes five
 //! dispatches. Level 0 stays in the raster texture, which the test pass reads; the
 //! pyramid buffers hold levels 1.. only ([`buffer_levels`]: three quarters of the
 //! pixels' worth of memory less per slot than the CPU layout, which keeps level 0).
 //! CPU twin: `hom/pyramid.rs`; layout shared through [`LevelLayout`].
 
-use wgpu::util::DeviceExt;
-
+use super::counted::Encoder;
 use super::device::GpuDevice;
-use super::encode::{record_grid, slotted, storage_entry, texture_array_entry, uniform_entry};
+use super::encode::{record_grid, slotted, storage_entry, texture_entry, uniform_entry};
 use crate::core::hom::{MAX_LEVELS, pyramid::LevelLayout};
 
 /// Levels one dispatch writes after the one it reads.
@@ -28,7 +27,9 @@ struct Step {
 struct Levels {
     count: u32,
     slot_stride: u32,
-    _pad: [u32; 2],
+    /// Slots per atlas row ([`super::targets::SlotTargets::cols`]).
+    atlas_cols: u32,
+    _pad: u32,
     dims: [[u32; 4]; MAX_LEVELS],
 }
 
@@ -75,7 +76,7 @@ impl PyramidPass {
                 uniform_entry(0, true, wgpu::ShaderStages::COMPUTE),
                 storage_entry(1, false),
                 storage_entry(2, false),
-                texture_array_entry(3, wgpu::TextureSampleType::Float { filterable: false }),
+                texture_entry(3, wgpu::TextureSampleType::Float { filterable: false }),
                 uniform_entry(4, false, wgpu::ShaderStages::COMPUTE),
             ],
         );
@@ -86,11 +87,12 @@ impl PyramidPass {
     }
 
     /// The bind group of the pyramid of `layout` in `opacity` and `depth`
-    /// (slot-strided), built from the raster texture array `raster`.
-    pub fn bind_group(
+    /// (slot-strided), built from the occlusion atlas `raster` (`atlas_cols` slots a row).
+    pub(crate) fn bind_group(
         &self,
-        device: &wgpu::Device,
+        gpu: &GpuDevice,
         layout: &LevelLayout,
+        atlas_cols: u32,
         opacity: &wgpu::Buffer,
         depth: &wgpu::Buffer,
         raster: &wgpu::TextureView,
@@ -99,55 +101,35 @@ impl PyramidPass {
         let levels = Levels {
             count: layout.levels() as u32,
             slot_stride,
-            _pad: [0; 2],
+            atlas_cols,
+            _pad: 0,
             dims,
         };
-        let uniform = |label, contents: &[u8]| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::UNIFORM,
-            })
-        };
-        let steps = uniform("pyramid steps", &slotted(&steps(layout)));
-        let levels = uniform("pyramid levels", bytemuck::bytes_of(&levels));
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("pyramid"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &steps,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(std::mem::size_of::<Step>() as u64),
-                    }),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: opacity.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: depth.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: wgpu::BindingResource::TextureView(raster),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: levels.as_entire_binding(),
-                },
+        let usage = wgpu::BufferUsages::UNIFORM;
+        let steps = gpu.buffer_init("pyramid steps", &slotted(&steps(layout)), usage);
+        let levels = gpu.buffer_init("pyramid levels", bytemuck::bytes_of(&levels), usage);
+        gpu.bind_group(
+            "pyramid",
+            &self.layout,
+            vec![
+                wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &steps,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(std::mem::size_of::<Step>() as u64),
+                }),
+                opacity.as_entire_binding(),
+                depth.as_entire_binding(),
+                wgpu::BindingResource::TextureView(raster),
+                levels.as_entire_binding(),
             ],
-        })
+        )
     }
 
     /// Records every level for `slots` poses with a bind group from
     /// [`PyramidPass::bind_group`] for the same `layout`.
-    pub fn record(
+    pub(crate) fn record(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
+        encoder: &mut Encoder<'_>,
         bind_group: &wgpu::BindGroup,
         layout: &LevelLayout,
         slots: u32,

@@ -8,9 +8,11 @@
 //! keeps its depth buffer for the refinement (`crate::core::gpu::refine`); the oracle writes
 //! the nearest object's ID to an `r32uint` target.
 
+use super::counted::Encoder;
 use super::device::GpuDevice;
 use super::encode::{UNIFORM_SLOT, uniform_entry};
 use super::scene_buffers::SceneBuffers;
+use super::targets::{DepthUse, SlotTargets};
 
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub const OCCLUSION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
@@ -82,13 +84,17 @@ impl RasterPass {
         }
     }
 
-    /// Binds the scene's geometry and draws `draws` in an open render pass.
-    pub fn draw(pass: &mut wgpu::RenderPass<'_>, scene: &SceneBuffers, draws: DrawList<'_>) {
+    /// Binds the scene's geometry in an open render pass.
+    pub fn bind_geometry(pass: &mut wgpu::RenderPass<'_>, scene: &SceneBuffers) {
         pass.set_vertex_buffer(0, scene.vertices.slice(..));
         pass.set_index_buffer(scene.indices.slice(..), wgpu::IndexFormat::Uint32);
+    }
+
+    /// Records `draws` in an open render pass with the scene's geometry bound.
+    pub fn draw(pass: &mut wgpu::RenderPass<'_>, draws: DrawList<'_>) {
         match draws {
             DrawList::Direct(list) => {
-                for (first, count, id) in list {
+                for &(first, count, id) in list {
                     if count > 0 {
                         pass.draw_indexed(first..first + count, 0, id..id + 1);
                     }
@@ -101,61 +107,51 @@ impl RasterPass {
         }
     }
 
-    /// Records one pose's raster into `target` (one array layer) and `depth` (the
-    /// occluders' depth is kept for the refinement; the oracle's is discarded).
+    /// Records the raster of the poses `group` (slot = pose − first pose) into one
+    /// render pass over the atlas: the occlusion map and its depth (kept for the
+    /// refinement), or the oracle's IDs (depth discarded). `draws(p)` gives pose `p`'s.
     #[allow(clippy::too_many_arguments)]
-    pub fn record(
+    pub(crate) fn record_group<'d>(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
+        encoder: &mut Encoder<'_>,
         kind: RasterKind,
-        target: &wgpu::TextureView,
-        depth: &wgpu::TextureView,
+        t: &SlotTargets,
         poses: &wgpu::BindGroup,
-        pose_index: u32,
+        group: std::ops::Range<u32>,
         scene: &SceneBuffers,
-        draws: DrawList<'_>,
+        draws: impl Fn(u32) -> DrawList<'d>,
     ) {
-        let clear = match kind {
-            RasterKind::OccluderDepth => wgpu::Color::TRANSPARENT,
-            RasterKind::ObjectIds => wgpu::Color {
-                r: NO_OBJECT as f64,
-                g: 0.0,
-                b: 0.0,
-                a: 0.0,
-            },
-        };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("raster"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: target,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(clear),
-                    store: wgpu::StoreOp::Store,
+        let (target, clear, depth, pipeline) = match kind {
+            RasterKind::OccluderDepth => (
+                &t.occlusion.view,
+                wgpu::Color::TRANSPARENT,
+                DepthUse::ClearKeep,
+                &self.depth_pipeline,
+            ),
+            RasterKind::ObjectIds => (
+                &t.ids
+                    .get()
+                    .expect("ID atlas made before the oracle raster")
+                    .view,
+                wgpu::Color {
+                    r: NO_OBJECT as f64,
+                    g: 0.0,
+                    b: 0.0,
+                    a: 0.0,
                 },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(0.0),
-                    store: match kind {
-                        RasterKind::OccluderDepth => wgpu::StoreOp::Store,
-                        RasterKind::ObjectIds => wgpu::StoreOp::Discard,
-                    },
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_pipeline(match kind {
-            RasterKind::OccluderDepth => &self.depth_pipeline,
-            RasterKind::ObjectIds => &self.id_pipeline,
-        });
-        pass.set_bind_group(0, poses, &[(pose_index as u64 * UNIFORM_SLOT) as u32]);
-        Self::draw(&mut pass, scene, draws);
+                DepthUse::ClearDiscard,
+                &self.id_pipeline,
+            ),
+        };
+        let mut pass = t.begin_pass(encoder, "raster", Some((target, clear)), depth);
+        pass.set_pipeline(pipeline);
+        Self::bind_geometry(&mut pass, scene);
+        let first = group.start;
+        for p in group {
+            t.bind_slot(&mut pass, p - first);
+            pass.set_bind_group(0, poses, &[(p as u64 * UNIFORM_SLOT) as u32]);
+            Self::draw(&mut pass, draws(p));
+        }
     }
 }
 
@@ -227,18 +223,15 @@ fn vertex_state(module: &wgpu::ShaderModule) -> wgpu::VertexState<'_> {
 /// recorded one call per object or read from an indirect buffer (`first` and `count`
 /// in draws) in one call.
 pub enum DrawList<'a> {
-    Direct(Vec<(u32, u32, u32)>),
+    Direct(&'a [(u32, u32, u32)]),
     Indirect(&'a wgpu::Buffer, u32, u32),
 }
 
-/// The indirect arguments of every pose's draws in one buffer, and each pose's
-/// `(first, count)` in it.
-pub fn indirect_draws(
-    device: &wgpu::Device,
+/// The indirect arguments of every pose's draws, one after another, and each pose's
+/// `(first, count)` among them (draws of empty objects left out).
+pub(crate) fn indirect_args(
     per_pose: impl Iterator<Item = Vec<(u32, u32, u32)>>,
-    usage: wgpu::BufferUsages,
-) -> (wgpu::Buffer, Vec<(u32, u32)>) {
-    use wgpu::util::DeviceExt;
+) -> (Vec<u8>, Vec<(u32, u32)>) {
     let mut args: Vec<u8> = Vec::new();
     let mut ranges = Vec::new();
     let mut n = 0u32;
@@ -257,18 +250,7 @@ pub fn indirect_draws(
         }
         ranges.push((first, n - first));
     }
-    if args.is_empty() {
-        args.resize(
-            std::mem::size_of::<wgpu::util::DrawIndexedIndirectArgs>(),
-            0,
-        );
-    }
-    let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("indirect draws"),
-        contents: &args,
-        usage: wgpu::BufferUsages::INDIRECT | usage,
-    });
-    (buffer, ranges)
+    (args, ranges)
 }
 
 /// Draw calls `(first_index, index_count, object_id)` for the given objects.

@@ -6,8 +6,9 @@
 //! Two steps per group of poses, after the test pass:
 //! 1. `filter_draws` (compute, `refine.wgsl`) sets each indirect draw's instance count
 //!    to 0 or 1 from the box test's bit, so only survivors are drawn;
-//! 2. one render pass per pose with the occluder raster's own vertex stage (so coverage
-//!    and depth match the occluder raster and the oracle), no colour target, writing a
+//! 2. one render pass over the group's atlas (each pose in its slot: viewport, scissor
+//!    and uniform offsets) with the occluder raster's own vertex stage (so coverage and
+//!    depth match the occluder raster and the oracle), no colour target, writing a
 //!    second bitmask. Where the adapter can force early depth tests (Vulkan, GL), the
 //!    pass tests against the pose's occluder depth buffer (`fs_refine_early`,
 //!    `GreaterEqual`, no writes): fragments behind the occluders never reach the
@@ -18,26 +19,37 @@
 //!    rasterizer's own depths; all three are conservative and differ only on depth
 //!    near-ties).
 
-use wgpu::util::DeviceExt;
-
+use super::arena::{BindCache, GrowBuffer};
+use super::counted::Encoder;
 use super::device::GpuDevice;
 use super::encode::{
-    UNIFORM_SLOT, record_wide, slotted, storage_buffer, storage_entry, uniform_entry, uniform_slot,
+    UNIFORM_SLOT, record_wide, slotted, storage_entry, uniform_entry, uniform_slot,
 };
 use super::raster::{
-    DepthTest, DrawList, RasterPass, indirect_draws, object_draws, triangle_pipeline,
+    DepthTest, DrawList, RasterPass, indirect_args, object_draws, triangle_pipeline,
 };
 use super::scene_buffers::SceneBuffers;
+use super::targets::{DepthUse, SlotTargets};
 use crate::core::cull::PosePlan;
 
-/// `FilterParams` in `refine.wgsl` and `RefineParams` in `raster.wgsl`.
+/// `FilterParams` in `refine.wgsl`: one group's indirect draws, a uniform slot each.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct FilterParams {
+    pub first_draw: u32,
+    pub draw_count: u32,
+    pub words_per_pose: u32,
+    pub _pad: u32,
+}
+
+/// `RefineParams` in `raster.wgsl`: one pose, a uniform slot each.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct RefineParams {
-    pub a: u32,
-    pub b: u32,
+    /// The pose's index in the batch (its region of the bitmasks).
+    pub pose: u32,
     pub words_per_pose: u32,
-    pub _pad: u32,
+    pub _pad: [u32; 2],
 }
 
 pub struct RefinePass {
@@ -83,7 +95,7 @@ impl RefinePass {
                     0,
                     wgpu::BindingType::Texture {
                         sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        view_dimension: wgpu::TextureViewDimension::D2,
                         multisampled: false,
                     },
                 ),
@@ -112,247 +124,209 @@ impl RefinePass {
             raster: pipeline,
         }
     }
-
-    /// Records the filter of `count` draws of one group (its params slot `group`).
-    pub fn record_filter(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        bind_group: &wgpu::BindGroup,
-        group: u32,
-        count: u32,
-    ) {
-        record_wide(
-            encoder,
-            "refine filter",
-            &self.filter,
-            bind_group,
-            group,
-            count,
-            WG,
-        );
-    }
-
-    /// Records one pose's refinement raster (`refine` bound with its params slot `pose`)
-    /// on `depth`, the pose's occluder depth layer.
-    #[allow(clippy::too_many_arguments)]
-    pub fn record_raster(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        depth: &wgpu::TextureView,
-        poses: &wgpu::BindGroup,
-        refine: &wgpu::BindGroup,
-        pose: u32,
-        scene: &SceneBuffers,
-        draws: DrawList<'_>,
-    ) {
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("refine raster"),
-            color_attachments: &[],
-            // The occluder depth is read, not written, and not needed afterwards.
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Discard,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_pipeline(&self.raster);
-        let offset = (pose as u64 * UNIFORM_SLOT) as u32;
-        pass.set_bind_group(0, poses, &[offset]);
-        pass.set_bind_group(1, refine, &[offset]);
-        RasterPass::draw(&mut pass, scene, draws);
-    }
 }
 
-/// The refinement's draws: indirect (filtered on the GPU) or one call per candidate.
-pub(crate) enum RefineDraws {
-    Indirect {
-        buffer: wgpu::Buffer,
-        ranges: Vec<(u32, u32)>,
-        filter_bg: wgpu::BindGroup,
-    },
-    Direct(Vec<Vec<(u32, u32, u32)>>),
-}
-
-/// What the refinement of one batch records with.
-pub(crate) struct RefineBatch {
-    draws: RefineDraws,
+/// The refinement's inputs and bind groups, kept between batches (`super::arena`):
+/// every pose's candidates as draws (indirect, filtered on the GPU to the box test's
+/// survivors; or one call per candidate where indirect draws are missing), the second
+/// bitmask, and the per-group and per-pose params.
+pub(crate) struct RefineInputs {
+    draws: GrowBuffer,
+    draw_pose: GrowBuffer,
+    filter_params: GrowBuffer,
+    pose_params: GrowBuffer,
+    pub(crate) refined: GrowBuffer,
+    /// Per pose: `(first, count)` in `draws`.
+    ranges: Vec<(u32, u32)>,
+    /// Per pose: its direct draws (without indirect draws).
+    direct: Vec<Vec<(u32, u32, u32)>>,
     /// Indirect draws per group (for the filter dispatch).
     group_draws: Vec<u32>,
-    pub(crate) refined: wgpu::Buffer,
-    raster_bg: wgpu::BindGroup,
+    filter_bind: BindCache,
+    raster_bind: BindCache,
+    indirect: bool,
+    /// Bytes of the refined bitmask this batch.
+    mask_bytes: u64,
 }
 
-impl RefineBatch {
-    /// Buffers and bind groups of the refinement pass for a batch: every pose's
-    /// candidates as draws (filtered on the GPU to the box test's survivors when draws
-    /// are indirect), the second bitmask, and per-pose and per-group params.
-    /// `object_ranges` holds every object's `(first_index, index_count)`.
+impl RefineInputs {
+    pub(crate) fn new() -> Self {
+        let storage = wgpu::BufferUsages::STORAGE;
+        let uniform = wgpu::BufferUsages::UNIFORM;
+        RefineInputs {
+            draws: GrowBuffer::new("refine draws", wgpu::BufferUsages::INDIRECT | storage),
+            draw_pose: GrowBuffer::new("refine draw pose", storage),
+            filter_params: GrowBuffer::new("refine filter params", uniform),
+            pose_params: GrowBuffer::new("refine params", uniform),
+            refined: GrowBuffer::new(
+                "refined visibility mask",
+                storage | wgpu::BufferUsages::COPY_SRC,
+            ),
+            ranges: Vec::new(),
+            direct: Vec::new(),
+            group_draws: Vec::new(),
+            filter_bind: BindCache::default(),
+            raster_bind: BindCache::default(),
+            indirect: false,
+            mask_bytes: 0,
+        }
+    }
+
+    /// Writes a batch's refinement inputs and binds them on `t` with the box test's
+    /// bitmask `box_mask`. `object_ranges` holds every object's `(first_index,
+    /// index_count)`.
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn new(
+    pub(crate) fn write(
+        &mut self,
         gpu: &GpuDevice,
         pass: &RefinePass,
+        t: &SlotTargets,
         object_ranges: &[(u32, u32)],
         plans: &[PosePlan],
         groups: &[(u32, u32)],
-        box_mask: &wgpu::Buffer,
-        occlusion: &wgpu::TextureView,
+        box_mask: &GrowBuffer,
         words: u32,
-    ) -> Self {
-        let device = &gpu.device;
+    ) {
         let draws = plans
             .iter()
             .map(|p| object_draws(object_ranges, &p.candidates));
-        let mut group_draws = Vec::new();
-        let draws = if gpu.indirect_draws {
-            let (buffer, ranges) = indirect_draws(device, draws, wgpu::BufferUsages::STORAGE);
+        self.indirect = gpu.indirect_draws;
+        self.group_draws.clear();
+        if self.indirect {
+            let (args, ranges) = indirect_args(draws);
+            self.draws.write(gpu, &args);
             let draw_pose: Vec<u32> = ranges
                 .iter()
                 .enumerate()
                 .flat_map(|(p, &(_, n))| std::iter::repeat_n(p as u32, n as usize))
                 .collect();
-            let params: Vec<RefineParams> = groups
+            let params: Vec<FilterParams> = groups
                 .iter()
                 .map(|&(a, b)| {
                     let first = ranges[a as usize].0;
                     let (last, n) = ranges[b as usize - 1];
-                    RefineParams {
-                        a: first,
-                        b: last + n - first,
+                    FilterParams {
+                        first_draw: first,
+                        draw_count: last + n - first,
                         words_per_pose: words,
                         _pad: 0,
                     }
                 })
                 .collect();
-            group_draws = params.iter().map(|p| p.b).collect();
-            let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("refine filter params"),
-                contents: &slotted(&params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-            let draw_pose = storage_buffer(device, "draw pose", bytemuck::cast_slice(&draw_pose));
-            let filter_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("refine filter"),
-                layout: &pass.filter_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: uniform_slot(&params),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: box_mask.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: draw_pose.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: buffer.as_entire_binding(),
-                    },
-                ],
-            });
-            RefineDraws::Indirect {
-                buffer,
-                ranges,
-                filter_bg,
-            }
+            self.group_draws.extend(params.iter().map(|p| p.draw_count));
+            self.filter_params.write(gpu, &slotted(&params));
+            self.draw_pose.write(gpu, bytemuck::cast_slice(&draw_pose));
+            self.ranges = ranges;
         } else {
-            RefineDraws::Direct(draws.collect())
-        };
-        let refined = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("refined visibility mask"),
-            size: (plans.len() as u32 * words) as u64 * 4,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let pose_params: Vec<RefineParams> = groups
-            .iter()
-            .flat_map(|&(a, b)| {
-                (a..b).map(move |p| RefineParams {
-                    a: p - a,
-                    b: p,
-                    words_per_pose: words,
-                    _pad: 0,
-                })
+            self.direct = draws.collect();
+        }
+        self.mask_bytes = (plans.len() as u32 * words) as u64 * 4;
+        self.refined.reserve(gpu, self.mask_bytes);
+        let pose_params: Vec<RefineParams> = (0..plans.len() as u32)
+            .map(|pose| RefineParams {
+                pose,
+                words_per_pose: words,
+                _pad: [0; 2],
             })
             .collect();
-        let pose_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("refine params"),
-            contents: &slotted(&pose_params),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let raster_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("refine raster"),
-            layout: &pass.raster_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(occlusion),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: box_mask.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: refined.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: uniform_slot(&pose_params),
-                },
-            ],
-        });
-        RefineBatch {
-            draws,
-            group_draws,
-            refined,
-            raster_bg,
-        }
+        self.pose_params.write(gpu, &slotted(&pose_params));
+        self.bind(gpu, pass, t, box_mask);
     }
 
-    /// Records the refinement of poses `range` (group `g`), after its test pass.
-    /// `depth` holds the per-slot occluder depth targets of the group.
+    /// Makes (or keeps) the filter's and the raster's bind groups.
+    fn bind(&mut self, gpu: &GpuDevice, pass: &RefinePass, t: &SlotTargets, mask: &GrowBuffer) {
+        let RefineInputs {
+            draws,
+            draw_pose,
+            filter_params,
+            pose_params,
+            refined,
+            filter_bind,
+            raster_bind,
+            indirect,
+            ..
+        } = self;
+        if *indirect {
+            let key = [mask.id(), draws.id(), draw_pose.id(), filter_params.id()];
+            filter_bind.get(&key, || {
+                gpu.bind_group(
+                    "refine filter",
+                    &pass.filter_layout,
+                    vec![
+                        uniform_slot::<FilterParams>(filter_params.get()),
+                        mask.get().as_entire_binding(),
+                        draw_pose.get().as_entire_binding(),
+                        draws.get().as_entire_binding(),
+                    ],
+                )
+            });
+        }
+        let key = [t.generation, mask.id(), refined.id(), pose_params.id()];
+        raster_bind.get(&key, || {
+            gpu.bind_group(
+                "refine raster",
+                &pass.raster_layout,
+                vec![
+                    wgpu::BindingResource::TextureView(&t.occlusion.view),
+                    mask.get().as_entire_binding(),
+                    refined.get().as_entire_binding(),
+                    uniform_slot::<RefineParams>(pose_params.get()),
+                ],
+            )
+        });
+    }
+
+    /// Clears the refined bitmask (before the batch's first group).
+    pub(crate) fn clear(&self, encoder: &mut Encoder<'_>) {
+        encoder
+            .raw
+            .clear_buffer(self.refined.get(), 0, Some(self.mask_bytes));
+    }
+
+    /// Records the refinement of poses `range` (group `g`), after its box test: the
+    /// filter dispatch, then one render pass over the atlas, each pose in its slot.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn record(
         &self,
         pass: &RefinePass,
-        encoder: &mut wgpu::CommandEncoder,
-        depth: &[wgpu::TextureView],
+        encoder: &mut Encoder<'_>,
+        t: &SlotTargets,
         pose_bg: &wgpu::BindGroup,
         scene: &SceneBuffers,
         g: usize,
         range: std::ops::Range<u32>,
     ) {
-        let r = self;
-        if let RefineDraws::Indirect { filter_bg, .. } = &r.draws {
-            pass.record_filter(encoder, filter_bg, g as u32, r.group_draws[g]);
+        if self.indirect {
+            let filter_bg = self.filter_bind.current();
+            let count = self.group_draws[g];
+            record_wide(
+                encoder,
+                "refine filter",
+                &pass.filter,
+                filter_bg,
+                g as u32,
+                count,
+                WG,
+            );
         }
+        let raster_bg = self.raster_bind.current();
+        // The occluder depth is read, not written, and not needed afterwards.
+        let mut rp = t.begin_pass(encoder, "refine raster", None, DepthUse::LoadDiscard);
+        rp.set_pipeline(&pass.raster);
+        RasterPass::bind_geometry(&mut rp, scene);
         let first = range.start;
         for p in range {
-            let draws = match &r.draws {
-                RefineDraws::Indirect { buffer, ranges, .. } => {
-                    let (first, count) = ranges[p as usize];
-                    DrawList::Indirect(buffer, first, count)
-                }
-                RefineDraws::Direct(lists) => DrawList::Direct(lists[p as usize].clone()),
+            t.bind_slot(&mut rp, p - first);
+            let offset = (p as u64 * UNIFORM_SLOT) as u32;
+            rp.set_bind_group(0, pose_bg, &[offset]);
+            rp.set_bind_group(1, raster_bg, &[offset]);
+            let draws = if self.indirect {
+                let (first, count) = self.ranges[p as usize];
+                DrawList::Indirect(self.draws.get(), first, count)
+            } else {
+                DrawList::Direct(&self.direct[p as usize])
             };
-            pass.record_raster(
-                encoder,
-                &depth[(p - first) as usize],
-                pose_bg,
-                &r.raster_bg,
-                p,
-                scene,
-                draws,
-            );
+            RasterPass::draw(&mut rp, draws);
         }
     }
 }

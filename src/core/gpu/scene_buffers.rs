@@ -1,7 +1,6 @@
 //! A scene's geometry on the GPU: uploaded once, shared by every pass and pose.
 
-use wgpu::util::DeviceExt;
-
+use super::device::GpuDevice;
 use crate::core::scene::Scene;
 
 /// One test box as the test kernel reads it (`TestBox` in `test.wgsl`).
@@ -22,14 +21,8 @@ pub struct SceneBuffers {
 }
 
 impl SceneBuffers {
-    pub fn new(device: &wgpu::Device, scene: &Scene) -> Self {
-        let init = |label, contents: &[u8], usage| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            })
-        };
+    pub fn new(gpu: &GpuDevice, scene: &Scene) -> Self {
+        let init = |label, contents: &[u8], usage| gpu.buffer_init(label, contents, usage);
         let verts: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
         let mut indices = scene.indices.clone();
         if indices.is_empty() {

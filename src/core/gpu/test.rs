@@ -3,9 +3,15 @@
 
 use homcull_proto::{DebVariant, Method};
 
+use super::arena::{BindCache, GrowBuffer};
+use super::counted::Encoder;
 use super::device::GpuDevice;
-use super::encode::{record_wide, storage_entry, texture_array_entry, uniform_entry};
+use super::encode::{
+    record_wide, slotted, storage_entry, texture_entry, uniform_entry, uniform_slot,
+};
 use super::pyramid::buffer_levels;
+use super::targets::SlotTargets;
+use crate::core::cull::PosePlan;
 use crate::core::hom::{MAX_LEVELS, pyramid::LevelLayout};
 
 /// `TestConfig` in `test.wgsl`: what is the same for every pose of a batch.
@@ -20,6 +26,9 @@ pub struct TestConfig {
     pub deb_rows: u32,
     pub words_per_pose: u32,
     pub slot_stride: u32,
+    /// Slots per atlas row ([`SlotTargets::cols`]).
+    pub atlas_cols: u32,
+    pub _pad: [u32; 3],
     pub dims: [[u32; 4]; MAX_LEVELS],
     pub thresholds: [[f32; 4]; MAX_LEVELS],
 }
@@ -35,6 +44,7 @@ impl TestConfig {
         deb_cols: u32,
         deb_rows: u32,
         words_per_pose: u32,
+        atlas_cols: u32,
     ) -> Self {
         let (dims, slot_stride) = buffer_levels(layout);
         let mut thr = [[0.0; 4]; MAX_LEVELS];
@@ -54,20 +64,24 @@ impl TestConfig {
             deb_rows,
             words_per_pose,
             slot_stride,
+            atlas_cols,
+            _pad: [0; 3],
             dims,
             thresholds: thr,
         }
     }
 }
 
-/// `GroupParams` in `test.wgsl` (also used by the oracle collect pass).
+/// `TestGroup` in `test.wgsl`: one group's candidates, one uniform slot per group.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct GroupParams {
-    pub a: u32,
-    pub b: u32,
-    pub c: u32,
-    pub d: u32,
+pub struct TestGroup {
+    /// The group's first candidate in the batch's candidate list.
+    pub cand_start: u32,
+    pub cand_count: u32,
+    /// The group's first pose (its slot 0).
+    pub first_pose: u32,
+    pub _pad: u32,
 }
 
 pub struct TestPass {
@@ -89,7 +103,7 @@ impl TestPass {
         .chain((2..=7).map(|b| storage_entry(b, true)))
         .chain([
             storage_entry(8, false),
-            texture_array_entry(9, wgpu::TextureSampleType::Float { filterable: false }),
+            texture_entry(9, wgpu::TextureSampleType::Float { filterable: false }),
         ])
         .collect();
         let (layout, pl) = ctx.compute_layout("test", &entries);
@@ -98,9 +112,9 @@ impl TestPass {
     }
 
     /// Records the test of `count` candidates of group `group` (its params slot).
-    pub fn record(
+    pub(crate) fn record(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
+        encoder: &mut Encoder<'_>,
         bind_group: &wgpu::BindGroup,
         group: u32,
         count: u32,
@@ -114,5 +128,121 @@ impl TestPass {
             count,
             WG,
         );
+    }
+}
+
+/// What the box test binds beyond the targets, kept between batches
+/// (`super::arena`): its config, per-group params, candidates and DEB tiles.
+pub(crate) struct TestInputs {
+    config: GrowBuffer,
+    groups: GrowBuffer,
+    candidates: GrowBuffer,
+    deb_tiles: GrowBuffer,
+    bind: BindCache,
+    /// Candidates per group of the last batch written.
+    pub(crate) counts: Vec<u32>,
+}
+
+impl TestInputs {
+    pub(crate) fn new() -> Self {
+        let storage = wgpu::BufferUsages::STORAGE;
+        TestInputs {
+            config: GrowBuffer::new("test config", wgpu::BufferUsages::UNIFORM),
+            groups: GrowBuffer::new("test groups", wgpu::BufferUsages::UNIFORM),
+            candidates: GrowBuffer::new("test candidates", storage),
+            deb_tiles: GrowBuffer::new("deb tiles", storage),
+            bind: BindCache::default(),
+            counts: Vec::new(),
+        }
+    }
+
+    /// Writes a batch's test inputs: `cfg`, and per group of `plans` its candidates
+    /// (`[pose, test box]`, group after group) and first pose; the DEB tiles per pose.
+    pub(crate) fn write(
+        &mut self,
+        gpu: &GpuDevice,
+        cfg: &TestConfig,
+        plans: &[PosePlan],
+        groups: &[(u32, u32)],
+    ) {
+        let mut candidates: Vec<[u32; 2]> = Vec::new();
+        let mut params = Vec::with_capacity(groups.len());
+        self.counts.clear();
+        for &(a, b) in groups {
+            let start = candidates.len() as u32;
+            for p in a..b {
+                candidates.extend(plans[p as usize].test_boxes.iter().map(|&bx| [p, bx]));
+            }
+            let count = candidates.len() as u32 - start;
+            self.counts.push(count);
+            params.push(TestGroup {
+                cand_start: start,
+                cand_count: count,
+                first_pose: a,
+                _pad: 0,
+            });
+        }
+        let deb_tiles: Vec<f32> = plans
+            .iter()
+            .flat_map(|p| p.deb.depth.iter().copied())
+            .collect();
+        self.config.write(gpu, bytemuck::bytes_of(cfg));
+        self.groups.write(gpu, &slotted(&params));
+        self.candidates
+            .write(gpu, bytemuck::cast_slice(&candidates));
+        self.deb_tiles.write(gpu, bytemuck::cast_slice(&deb_tiles));
+    }
+
+    /// Makes (or keeps) the test's bind group on `t`, with the batch's `poses`, the
+    /// scene's `boxes` and the visibility `mask`.
+    pub(crate) fn bind(
+        &mut self,
+        gpu: &GpuDevice,
+        pass: &TestPass,
+        t: &SlotTargets,
+        poses: &GrowBuffer,
+        boxes: &wgpu::Buffer,
+        mask: &GrowBuffer,
+    ) {
+        let TestInputs {
+            config,
+            groups,
+            candidates,
+            deb_tiles,
+            bind,
+            ..
+        } = self;
+        let key = [
+            t.generation,
+            poses.id(),
+            mask.id(),
+            config.id(),
+            groups.id(),
+            candidates.id(),
+            deb_tiles.id(),
+        ];
+        bind.get(&key, || {
+            gpu.bind_group(
+                "test",
+                &pass.layout,
+                vec![
+                    config.get().as_entire_binding(),
+                    uniform_slot::<TestGroup>(groups.get()),
+                    poses.get().as_entire_binding(),
+                    boxes.as_entire_binding(),
+                    candidates.get().as_entire_binding(),
+                    deb_tiles.get().as_entire_binding(),
+                    t.opacity.as_entire_binding(),
+                    t.pyramid_depth.as_entire_binding(),
+                    mask.get().as_entire_binding(),
+                    wgpu::BindingResource::TextureView(&t.occlusion.view),
+                ],
+            )
+        });
+    }
+
+    /// The bind group of the last [`TestInputs::bind`].
+    pub(crate) fn bind_group(&self) -> &wgpu::BindGroup {
+        self.bind.current()
     }
 }

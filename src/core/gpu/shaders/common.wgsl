@@ -22,6 +22,12 @@ struct ScreenRect {
     near: f32,
 }
 
+// Top-left pixel of slot `slot` in an atlas of `cols` slots a row, each `size` pixels
+// (`SlotTargets::origin`).
+fn slot_origin(slot: u32, cols: u32, size: vec2<u32>) -> vec2<u32> {
+    return vec2<u32>((slot % cols) * size.x, (slot / cols) * size.y);
+}
+
 fn in_front(occluder_depth: f32, object_near: f32) -> bool {
     return occluder_depth * (1.0 + DEPTH_MARGIN) < object_near;
 }

@@ -5,10 +5,14 @@ struct CollectParams {
     height: u32,
     words_per_pose: u32,
     first_pose: u32,
+    atlas_cols: u32, // slots per atlas row
+    _a: u32,
+    _b: u32,
+    _c: u32,
 }
 
 @group(0) @binding(0) var<uniform> cp: CollectParams;
-@group(0) @binding(1) var ids: texture_2d_array<u32>;
+@group(0) @binding(1) var ids: texture_2d<u32>;
 @group(0) @binding(2) var<storage, read_write> mask: array<atomic<u32>>;
 
 const NO_OBJECT: u32 = 0xffffffffu;
@@ -18,7 +22,8 @@ fn collect(@builtin(global_invocation_id) g: vec3<u32>) {
     if g.x >= cp.width || g.y >= cp.height {
         return;
     }
-    let id = textureLoad(ids, vec2<u32>(g.x, g.y), g.z, 0).r;
+    let at = slot_origin(g.z, cp.atlas_cols, vec2<u32>(cp.width, cp.height)) + g.xy;
+    let id = textureLoad(ids, at, 0).r;
     if id == NO_OBJECT {
         return;
     }

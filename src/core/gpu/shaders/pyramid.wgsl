@@ -1,6 +1,6 @@
 // Occlusion pyramid, two levels per dispatch: each invocation reduces a 4×4 block of
 // the source level to 2×2 texels of the next level and 1 of the one after. The first
-// dispatch reads level 0 straight from the occluder raster (the pyramid buffers hold
+// dispatch reads level 0 straight from the slot's rectangle of the occluder atlas (the pyramid buffers hold
 // levels 1.. only: the test reads level 0 from the raster too); later ones read the
 // last level written. Each 2×2 reduction averages opacity and takes the max depth; texels outside
 // a level are transparent, never opaque. A texel outside its level comes out 0 (all
@@ -21,8 +21,8 @@ struct Step {
 struct Levels {
     count: u32,
     slot_stride: u32,
-    _a: u32,
-    _b: u32,
+    atlas_cols: u32, // slots per atlas row
+    _pad: u32,
     // x: width, y: height, z: offset of each level
     dims: array<vec4<u32>, 16>,
 }
@@ -30,7 +30,7 @@ struct Levels {
 @group(0) @binding(0) var<uniform> step: Step;
 @group(0) @binding(1) var<storage, read_write> opacity: array<f32>;
 @group(0) @binding(2) var<storage, read_write> depth: array<f32>;
-@group(0) @binding(3) var raster: texture_2d_array<f32>;
+@group(0) @binding(3) var raster: texture_2d<f32>;
 @group(0) @binding(4) var<uniform> lv: Levels;
 
 fn index(slot: u32, l: u32, x: u32, y: u32) -> u32 {
@@ -39,7 +39,8 @@ fn index(slot: u32, l: u32, x: u32, y: u32) -> u32 {
 }
 
 fn level0(slot: u32, x: u32, y: u32) -> vec2<f32> {
-    let d = textureLoad(raster, vec2<u32>(x, y), slot, 0).r;
+    let at = slot_origin(slot, lv.atlas_cols, lv.dims[0].xy) + vec2<u32>(x, y);
+    let d = textureLoad(raster, at, 0).r;
     return vec2<f32>(select(0.0, 1.0, d > 0.0), d);
 }
 

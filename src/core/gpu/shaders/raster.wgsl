@@ -40,13 +40,14 @@ fn fs_id(in: VsOut) -> @location(0) u32 {
 // CPU twin: `hom::refine::refine`.
 
 struct RefineParams {
-    slot: u32,           // the pose's layer of the occlusion map
     pose: u32,           // the pose's index in the batch
     words_per_pose: u32,
-    _pad: u32,
+    _a: u32,
+    _b: u32,
 }
 
-@group(1) @binding(0) var occlusion: texture_2d_array<f32>;
+// The occlusion atlas: a fragment's framebuffer position is its pixel in the pose's slot.
+@group(1) @binding(0) var occlusion: texture_2d<f32>;
 @group(1) @binding(1) var<storage, read> box_mask: array<u32>;
 @group(1) @binding(2) var<storage, read_write> refined: array<atomic<u32>>;
 @group(1) @binding(3) var<uniform> rp: RefineParams;
@@ -65,7 +66,7 @@ fn mark_visible(id: u32) {
 
 @fragment
 fn fs_refine(in: VsOut) {
-    let occ = textureLoad(occlusion, vec2<u32>(in.clip.xy), rp.slot, 0).r;
+    let occ = textureLoad(occlusion, vec2<u32>(in.clip.xy), 0).r;
     if occ > 0.0 && in_front(occ, in.depth) {
         return;
     }

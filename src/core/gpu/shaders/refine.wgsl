@@ -2,8 +2,8 @@
 // test culled, so only its survivors are drawn again (see `fs_refine` in raster.wgsl).
 
 struct FilterParams {
-    first: u32,          // first draw of the group
-    count: u32,          // draws in the group
+    first_draw: u32,     // first draw of the group
+    draw_count: u32,     // draws in the group
     words_per_pose: u32,
     _pad: u32,
 }
@@ -29,10 +29,10 @@ fn filter_draws(
 ) {
     // Dispatches wider than 65535 workgroups wrap into y rows.
     let k = g.x + g.y * n.x * 64u;
-    if k >= fp.count {
+    if k >= fp.draw_count {
         return;
     }
-    let i = fp.first + k;
+    let i = fp.first_draw + k;
     let id = draws[i].first_instance;
     let w = draw_pose[i] * fp.words_per_pose + id / 32u;
     draws[i].instance_count = select(0u, 1u, (box_mask[w] & (1u << (id % 32u))) != 0u);

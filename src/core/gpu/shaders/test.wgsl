@@ -18,13 +18,17 @@ struct TestConfig {
     deb_rows: u32,
     words_per_pose: u32,
     slot_stride: u32,
+    atlas_cols: u32, // slots per atlas row
+    _a: u32,
+    _b: u32,
+    _c: u32,
     // x: width, y: height, z: offset of each level
     dims: array<vec4<u32>, 16>,
     // x: opacity threshold of each level
     thresholds: array<vec4<f32>, 16>,
 }
 
-struct GroupParams {
+struct TestGroup {
     cand_start: u32,
     cand_count: u32,
     first_pose: u32,
@@ -37,7 +41,7 @@ struct TestBox {
 }
 
 @group(0) @binding(0) var<uniform> cfg: TestConfig;
-@group(0) @binding(1) var<uniform> grp: GroupParams;
+@group(0) @binding(1) var<uniform> grp: TestGroup;
 @group(0) @binding(2) var<storage, read> poses: array<PoseUniform>;
 @group(0) @binding(3) var<storage, read> boxes: array<TestBox>;
 @group(0) @binding(4) var<storage, read> candidates: array<vec2<u32>>;
@@ -45,13 +49,14 @@ struct TestBox {
 @group(0) @binding(6) var<storage, read> opacity: array<f32>;
 @group(0) @binding(7) var<storage, read> depth: array<f32>;
 @group(0) @binding(8) var<storage, read_write> mask: array<atomic<u32>>;
-// Level 0 is the occluder raster itself (the pyramid buffers start at level 1).
-@group(0) @binding(9) var raster: texture_2d_array<f32>;
+// Level 0 is the occluder atlas itself (the pyramid buffers start at level 1).
+@group(0) @binding(9) var raster: texture_2d<f32>;
 
 // Texel (x, y) of level l as (opacity, depth).
 fn texel(slot: u32, l: u32, x: u32, y: u32) -> vec2<f32> {
     if l == 0u {
-        let d = textureLoad(raster, vec2<u32>(x, y), slot, 0).r;
+        let at = slot_origin(slot, cfg.atlas_cols, cfg.dims[0].xy) + vec2<u32>(x, y);
+        let d = textureLoad(raster, at, 0).r;
         return vec2<f32>(select(0.0, 1.0, d > 0.0), d);
     }
     let i = slot * cfg.slot_stride + cfg.dims[l].z + y * cfg.dims[l].x + x;
