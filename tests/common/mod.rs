@@ -26,6 +26,14 @@ pub fn gpu() -> Option<Arc<GpuContext>> {
     .clone()
 }
 
+/// A test GPU context of its own (not shared with the other tests of the binary,
+/// which run in parallel), for tests that count what the device records.
+pub fn private_gpu() -> Option<Arc<GpuContext>> {
+    gpu()?;
+    let ctx = GpuContext::new().expect("the test adapter opens twice");
+    Some(Arc::new(ctx))
+}
+
 /// A second test GPU context that takes the path of adapters without forced early
 /// depth tests (`GpuOptions::early_depth_test` off), for the refinement's fallback.
 pub fn gpu_without_early_z() -> Option<Arc<GpuContext>> {

@@ -1,18 +1,17 @@
-//! The one place homcull creates GPU buffers and bind groups, begins passes and submits
-//! work, each counted, so that tests can see what a batch records.
+//! Counts of the GPU buffers and bind groups homcull creates, the passes it begins and
+//! the work it submits, so that tests can see what a batch records. `GpuDevice`'s
+//! `buffer`, `bind_group` and `submit` and [`Encoder`]'s passes are the only way the
+//! rest of `gpu/` makes them.
 //!
 //! A batch's cost on a GPU is mostly fixed costs per object created and per pass begun
 //! (barriers, descriptor writes, pass breaks), which a timing on a software adapter
-//! hides. [`GpuDevice::counts`] makes them visible anywhere: `tests/gpu_batch.rs`
+//! hides. `GpuDevice::counts` makes them visible anywhere: `tests/gpu_batch.rs`
 //! asserts that a batch of 1 or 256 poses records the same passes and submissions, and
 //! that a second batch creates nothing. `tests/architecture.rs` keeps the raw wgpu
-//! calls out of every other file of `gpu/`, so nothing slips past the count.
+//! calls out of every file of `gpu/` but this one and `device.rs`, so nothing slips
+//! past the count.
 
 use std::sync::atomic::{AtomicU64, Ordering};
-
-use wgpu::util::DeviceExt;
-
-use super::device::GpuDevice;
 
 /// Running totals of what the device has been asked to create and record.
 #[derive(Debug, Default)]
@@ -47,79 +46,29 @@ impl std::ops::Sub for RecordCounts {
     }
 }
 
-fn bump(counter: &AtomicU64) {
-    counter.fetch_add(1, Ordering::Relaxed);
-}
+impl Counters {
+    pub(crate) fn buffer(&self) {
+        self.buffers.fetch_add(1, Ordering::Relaxed);
+    }
 
-impl GpuDevice {
-    /// What this device has created and recorded so far.
-    pub fn counts(&self) -> RecordCounts {
-        let c = &self.counters;
+    pub(crate) fn bind_group(&self) {
+        self.bind_groups.fetch_add(1, Ordering::Relaxed);
+    }
+
+    pub(crate) fn submission(&self) {
+        self.submissions.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// A snapshot of the totals.
+    pub(crate) fn snapshot(&self) -> RecordCounts {
         let get = |a: &AtomicU64| a.load(Ordering::Relaxed);
         RecordCounts {
-            buffers: get(&c.buffers),
-            bind_groups: get(&c.bind_groups),
-            render_passes: get(&c.render_passes),
-            compute_passes: get(&c.compute_passes),
-            submissions: get(&c.submissions),
+            buffers: get(&self.buffers),
+            bind_groups: get(&self.bind_groups),
+            render_passes: get(&self.render_passes),
+            compute_passes: get(&self.compute_passes),
+            submissions: get(&self.submissions),
         }
-    }
-
-    pub(crate) fn buffer(&self, desc: &wgpu::BufferDescriptor<'_>) -> wgpu::Buffer {
-        bump(&self.counters.buffers);
-        self.device.create_buffer(desc)
-    }
-
-    pub(crate) fn buffer_init(
-        &self,
-        label: &str,
-        contents: &[u8],
-        usage: wgpu::BufferUsages,
-    ) -> wgpu::Buffer {
-        bump(&self.counters.buffers);
-        self.device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            })
-    }
-
-    /// A bind group of `layout` with `resources` at bindings 0, 1, 2, …
-    pub(crate) fn bind_group(
-        &self,
-        label: &str,
-        layout: &wgpu::BindGroupLayout,
-        resources: Vec<wgpu::BindingResource<'_>>,
-    ) -> wgpu::BindGroup {
-        bump(&self.counters.bind_groups);
-        let entries: Vec<wgpu::BindGroupEntry> = resources
-            .into_iter()
-            .enumerate()
-            .map(|(binding, resource)| wgpu::BindGroupEntry {
-                binding: binding as u32,
-                resource,
-            })
-            .collect();
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(label),
-            layout,
-            entries: &entries,
-        })
-    }
-
-    /// A command encoder whose passes are counted.
-    pub(crate) fn encoder(&self) -> Encoder<'_> {
-        Encoder {
-            raw: self.device.create_command_encoder(&Default::default()),
-            counters: &self.counters,
-        }
-    }
-
-    /// Submits what `encoder` recorded.
-    pub(crate) fn submit(&self, encoder: Encoder<'_>) {
-        bump(&self.counters.submissions);
-        self.queue.submit([encoder.raw.finish()]);
     }
 }
 
@@ -130,17 +79,26 @@ pub(crate) struct Encoder<'a> {
     counters: &'a Counters,
 }
 
-impl Encoder<'_> {
+impl<'a> Encoder<'a> {
+    pub(crate) fn new(raw: wgpu::CommandEncoder, counters: &'a Counters) -> Self {
+        Encoder { raw, counters }
+    }
+
+    /// The recorded commands, ready to submit.
+    pub(crate) fn finish(self) -> wgpu::CommandBuffer {
+        self.raw.finish()
+    }
+
     pub(crate) fn render_pass<'p>(
         &'p mut self,
         desc: &wgpu::RenderPassDescriptor<'_>,
     ) -> wgpu::RenderPass<'p> {
-        bump(&self.counters.render_passes);
+        self.counters.render_passes.fetch_add(1, Ordering::Relaxed);
         self.raw.begin_render_pass(desc)
     }
 
     pub(crate) fn compute_pass(&mut self, label: &str) -> wgpu::ComputePass<'_> {
-        bump(&self.counters.compute_passes);
+        self.counters.compute_passes.fetch_add(1, Ordering::Relaxed);
         self.raw.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(label),
             timestamp_writes: None,

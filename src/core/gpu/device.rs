@@ -1,6 +1,9 @@
 //! The wgpu adapter, device and queue homcull renders with, and the optional features
 //! it found there. The lowest floor of the GPU backend: every pass is built on it.
 
+use wgpu::util::DeviceExt;
+
+use super::counted::{Counters, Encoder, RecordCounts};
 use crate::core::cull::CullError;
 
 /// Why the GPU could not be used.
@@ -60,7 +63,7 @@ pub struct GpuDevice {
     /// so batches can be profiled pass by pass (`crate::core::gpu::profile`).
     pub timestamps: bool,
     /// What has been created and recorded ([`GpuDevice::counts`]).
-    pub(crate) counters: super::counted::Counters,
+    counters: Counters,
 }
 
 impl GpuDevice {
@@ -138,6 +141,68 @@ impl GpuDevice {
             timestamps,
             counters: Default::default(),
         })
+    }
+
+    /// What this device has created and recorded so far.
+    pub fn counts(&self) -> RecordCounts {
+        self.counters.snapshot()
+    }
+
+    pub(crate) fn buffer(&self, desc: &wgpu::BufferDescriptor<'_>) -> wgpu::Buffer {
+        self.counters.buffer();
+        self.device.create_buffer(desc)
+    }
+
+    pub(crate) fn buffer_init(
+        &self,
+        label: &str,
+        contents: &[u8],
+        usage: wgpu::BufferUsages,
+    ) -> wgpu::Buffer {
+        self.counters.buffer();
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+    }
+
+    /// A bind group of `layout` with `resources` at bindings 0, 1, 2, …
+    pub(crate) fn bind_group(
+        &self,
+        label: &str,
+        layout: &wgpu::BindGroupLayout,
+        resources: Vec<wgpu::BindingResource<'_>>,
+    ) -> wgpu::BindGroup {
+        self.counters.bind_group();
+        let entries: Vec<wgpu::BindGroupEntry> = resources
+            .into_iter()
+            .enumerate()
+            .map(|(binding, resource)| wgpu::BindGroupEntry {
+                binding: binding as u32,
+                resource,
+            })
+            .collect();
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(label),
+            layout,
+            entries: &entries,
+        })
+    }
+
+    /// A command encoder whose passes are counted.
+    pub(crate) fn encoder(&self) -> Encoder<'_> {
+        Encoder::new(
+            self.device.create_command_encoder(&Default::default()),
+            &self.counters,
+        )
+    }
+
+    /// Submits what `encoder` recorded.
+    pub(crate) fn submit(&self, encoder: Encoder<'_>) {
+        self.counters.submission();
+        self.queue.submit([encoder.finish()]);
     }
 
     /// A one-line description: adapter name and backend.

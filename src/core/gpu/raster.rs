@@ -14,9 +14,7 @@ use super::encode::{UNIFORM_SLOT, uniform_entry};
 use super::scene_buffers::SceneBuffers;
 use super::targets::{DepthUse, SlotTargets};
 
-pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-pub const OCCLUSION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
-pub const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
+pub use super::targets::{DEPTH_FORMAT, ID_FORMAT, OCCLUSION_FORMAT};
 /// Cleared ID: no object at this pixel.
 pub const NO_OBJECT: u32 = u32::MAX;
 

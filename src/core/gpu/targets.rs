@@ -16,8 +16,13 @@
 use super::counted::Encoder;
 use super::device::GpuDevice;
 use super::pyramid::{PyramidPass, buffer_levels};
-use super::raster::{DEPTH_FORMAT, ID_FORMAT, OCCLUSION_FORMAT};
 use crate::core::hom::pyramid::LevelLayout;
+
+/// The atlases' formats: the occluders' depth buffer, the occlusion map (view depth of
+/// the nearest occluder, 0 where uncovered) and the oracle's object IDs.
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub const OCCLUSION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+pub const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 
 /// Most poses in one group (one atlas).
 pub const MAX_SLOTS: u32 = 256;
@@ -31,6 +36,19 @@ pub fn slot_budget(device_type: wgpu::DeviceType) -> u64 {
         wgpu::DeviceType::Cpu => 256 << 20,
         _ => 1 << 30,
     }
+}
+
+/// How many poses one atlas holds on `gpu` at `width` × `height`: the memory budget,
+/// the adapter's largest texture and [`MAX_SLOTS`] each bound it.
+pub fn slots_for(gpu: &GpuDevice, width: u32, height: u32) -> u32 {
+    let (_, pyramid_stride) = buffer_levels(&LevelLayout::new(width, height));
+    // Occlusion and depth (4 bytes a pixel each), opacity and depth pyramids (levels
+    // 1.., 4 bytes a texel each); the oracle's IDs come on top.
+    let per_slot = (width as u64 * height as u64) * 8 + pyramid_stride as u64 * 8;
+    let by_memory = (slot_budget(gpu.info.device_type) / per_slot).max(1);
+    let max_dim = gpu.device.limits().max_texture_dimension_2d;
+    let by_size = (max_dim / width).max(1) as u64 * (max_dim / height).max(1) as u64;
+    by_memory.min(by_size).min(MAX_SLOTS as u64) as u32
 }
 
 /// The atlas of one viewport size, and the pyramid buffers of its slots.
@@ -101,14 +119,8 @@ impl SlotTargets {
     ) -> Self {
         let layout = LevelLayout::new(width, height);
         let (_, pyramid_stride) = buffer_levels(&layout);
-        // Occlusion and depth (4 bytes a pixel each), opacity and depth pyramids
-        // (levels 1.., 4 bytes a texel each); the oracle's IDs come on top.
-        let per_slot = (width as u64 * height as u64) * 8 + pyramid_stride as u64 * 8;
-        let by_memory = (slot_budget(gpu.info.device_type) / per_slot).max(1);
-        let max_dim = gpu.device.limits().max_texture_dimension_2d;
-        let cols = (max_dim / width).max(1);
-        let by_size = cols as u64 * (max_dim / height).max(1) as u64;
-        let slots = by_memory.min(by_size).min(MAX_SLOTS as u64) as u32;
+        let slots = slots_for(gpu, width, height);
+        let cols = (gpu.device.limits().max_texture_dimension_2d / width).max(1);
         let cols = cols.min(slots);
         let (aw, ah) = (cols * width, slots.div_ceil(cols) * height);
         let device = &gpu.device;

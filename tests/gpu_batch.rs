@@ -1,0 +1,105 @@
+//! The GPU batch's structure, counted through `GpuDevice::counts` (every buffer, bind
+//! group, pass and submission goes through it; `tests/architecture.rs` keeps it so):
+//! a batch of any size up to one atlas records the same passes and one submission,
+//! and a batch after one of the same size creates nothing.
+
+mod common;
+
+use common::scenes::settings;
+use homcull::core::camera::Camera;
+use homcull::core::cull::{CullSettings, Culler, PosePlan, PreparedScene, plan};
+use homcull::core::gpu::targets::slots_for;
+use homcull::core::gpu::{GpuBackend, RecordCounts};
+use homcull::core::occluders::OccluderParams;
+use homcull::core::sampler::PoseSampler;
+use homcull::core::scene::demo_city;
+use homcull_proto::{DebVariant, Method};
+
+fn plans(prep: &PreparedScene, n: usize, viewport: [u32; 2], s: &CullSettings) -> Vec<PosePlan> {
+    let sampled = PoseSampler::new(&prep.scene).sample(n, 3, viewport, &|_| true);
+    assert_eq!(sampled.poses.len(), n);
+    sampled
+        .poses
+        .iter()
+        .map(|p| plan(prep, &Camera::new(p).unwrap(), s))
+        .collect()
+}
+
+/// What one batch of `plans` records, and its answers.
+fn counted(
+    backend: &mut GpuBackend,
+    prep: &PreparedScene,
+    plans: &[PosePlan],
+    s: &CullSettings,
+) -> (RecordCounts, Vec<Vec<u32>>) {
+    let before = backend.context().counts();
+    let masks = backend.visibility(prep, plans, s).unwrap();
+    (backend.context().counts() - before, masks)
+}
+
+#[test]
+fn a_batch_records_the_same_passes_whatever_its_size_and_a_repeat_creates_nothing() {
+    let Some(gpu) = common::private_gpu() else { return };
+    let prep = PreparedScene::new(demo_city(), OccluderParams::default());
+    let mut backend = GpuBackend::new(gpu, &prep);
+    let hom = settings(&prep, Method::Hom, DebVariant::Raster, true);
+    let exact = settings(&prep, Method::Exact, DebVariant::Raster, false);
+    let all = plans(&prep, 256, [96, 54], &hom);
+    let mut shapes = Vec::new();
+    for n in [1, 16, 64, 256] {
+        for (s, name) in [(&hom, "refined HOM"), (&exact, "exact")] {
+            let batch = &all[..n];
+            let (first, first_masks) = counted(&mut backend, &prep, batch, s);
+            let (again, masks) = counted(&mut backend, &prep, batch, s);
+            assert_eq!(masks, first_masks, "{name}, {n} poses: same answers again");
+            assert_eq!(
+                (again.buffers, again.bind_groups),
+                (0, 0),
+                "{name}, {n} poses: the second batch created buffers or bind groups \
+                 (first: {first:?})"
+            );
+            assert_eq!(again.submissions, 1, "{name}, {n} poses: one submission");
+            shapes.push((name, n, again.render_passes, again.compute_passes));
+        }
+    }
+    eprintln!("(method, poses, render passes, compute passes): {shapes:?}");
+    // The same passes at every size: refined HOM 2 render passes (occluders,
+    // refinement), the exact oracle 1 (IDs).
+    for &(name, n, render, compute) in &shapes {
+        let (render0, compute0) = match name {
+            "exact" => (1, 1),
+            _ => (2, shapes[0].3),
+        };
+        assert_eq!(
+            (render, compute),
+            (render0, compute0),
+            "{name}, {n} poses: {shapes:?}"
+        );
+    }
+    assert!(shapes[0].3 >= 3, "pyramid, box test and filter dispatches");
+    // A smaller batch after a larger one needs nothing new either.
+    let (smaller, _) = counted(&mut backend, &prep, &all[..5], &hom);
+    assert_eq!((smaller.buffers, smaller.bind_groups), (0, 0));
+}
+
+#[test]
+fn a_batch_larger_than_one_atlas_runs_in_groups_with_the_answers_of_single_poses() {
+    let Some(gpu) = common::private_gpu() else { return };
+    let prep = PreparedScene::new(demo_city(), OccluderParams::default());
+    let mut backend = GpuBackend::new(gpu, &prep);
+    let hom = settings(&prep, Method::Hom, DebVariant::Raster, true);
+    // 1920×1080: about 22 MB a slot (a 256 MiB software-adapter budget holds 11).
+    let (w, h) = (1920, 1080);
+    let slots = slots_for(backend.context(), w, h) as usize;
+    let batch = plans(&prep, slots + 3, [w, h], &hom);
+    let (counts, masks) = counted(&mut backend, &prep, &batch, &hom);
+    assert_eq!(counts.render_passes, 2 * 2, "two groups: {counts:?}");
+    assert_eq!(counts.submissions, 1);
+    for (k, p) in batch.iter().enumerate() {
+        let single = backend
+            .visibility(&prep, std::slice::from_ref(p), &hom)
+            .unwrap();
+        assert_eq!(single[0], masks[k], "pose {k}: batch and single differ");
+        assert!(masks[k].iter().any(|&w| w != 0), "pose {k} sees something");
+    }
+}
