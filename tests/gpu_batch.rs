@@ -39,7 +39,9 @@ fn counted(
 
 #[test]
 fn a_batch_records_the_same_passes_whatever_its_size_and_a_repeat_creates_nothing() {
-    let Some(gpu) = common::private_gpu() else { return };
+    let Some(gpu) = common::private_gpu() else {
+        return;
+    };
     let prep = PreparedScene::new(demo_city(), OccluderParams::default());
     let mut backend = GpuBackend::new(gpu, &prep);
     let hom = settings(&prep, Method::Hom, DebVariant::Raster, true);
@@ -84,7 +86,9 @@ fn a_batch_records_the_same_passes_whatever_its_size_and_a_repeat_creates_nothin
 
 #[test]
 fn a_batch_larger_than_one_atlas_runs_in_groups_with_the_answers_of_single_poses() {
-    let Some(gpu) = common::private_gpu() else { return };
+    let Some(gpu) = common::private_gpu() else {
+        return;
+    };
     let prep = PreparedScene::new(demo_city(), OccluderParams::default());
     let mut backend = GpuBackend::new(gpu, &prep);
     let hom = settings(&prep, Method::Hom, DebVariant::Raster, true);

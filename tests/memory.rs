@@ -197,11 +197,13 @@ async fn a_resident_scene_costs_at_most_four_times_its_glb() {
         grew as f64 / 1048576.0,
         targets as f64 / 1048576.0
     );
-    // 1.5× + 16 MiB: the batch's own buffers, the driver's shader variants compiled on
+    // 1.5× + 32 MiB: the batch's own buffers, the driver's shader variants compiled on
     // first draw and allocator arenas come on top (measured +108–113 MiB for 84 MiB of
-    // targets). Keeping level 0 in the pyramid buffers again (+66 MiB) would fail this.
+    // targets as 16 texture layers; +148 MiB since they are one 3840×2160 atlas, whose
+    // single large attachment costs the software rasterizer more per pass). Keeping
+    // level 0 in the pyramid buffers again (+66 MiB) would fail this.
     assert!(
-        grew as f64 <= 1.5 * targets as f64 + 16.0 * 1048576.0,
+        grew as f64 <= 1.5 * targets as f64 + 32.0 * 1048576.0,
         "the first batch grew resident memory by {grew} bytes; the slot targets are {targets}"
     );
 }

@@ -28,7 +28,7 @@ use super::pyramid::buffer_levels;
 use super::raster::RasterKind;
 use super::readback::{read_buffer, read_into, read_occlusion};
 use super::scene_buffers::SceneBuffers;
-use super::targets::SlotTargets;
+use super::targets::{SlotTargets, slots_for};
 use crate::core::cull::{
     CullError, CullSettings, Culler, Pass, PassTimes, PosePlan, PreparedScene,
 };
@@ -46,25 +46,30 @@ pub struct GpuBackend {
     inputs: BatchInputs,
 }
 
-/// Locks the shared atlas (serialising batches on this device), sized for `width` ×
-/// `height`.
+/// Locks the shared atlas (serialising batches on this device), sized for `plans`:
+/// remade for another viewport, or grown when it holds fewer slots than the batch has
+/// poses and the budget allows more.
 fn lock_targets<'p>(
     ctx: &GpuContext,
     passes: &'p SharedPasses,
-    width: u32,
-    height: u32,
+    plans: &[PosePlan],
 ) -> std::sync::MutexGuard<'p, Option<SlotTargets>> {
+    let size = (plans[0].cam.width, plans[0].cam.height);
+    let poses = plans.len() as u32;
     let mut t = passes.targets.lock().unwrap_or_else(|p| p.into_inner());
-    if t.as_ref()
-        .is_none_or(|t| (t.width, t.height) != (width, height))
-    {
+    let fits = |t: &SlotTargets| {
+        (t.width, t.height) == size
+            && (t.slots >= poses || t.slots >= slots_for(ctx, size.0, size.1))
+    };
+    if !t.as_ref().is_some_and(fits) {
         *t = None; // free the old targets before allocating new ones
+        let generation = next_resource_id();
         *t = Some(SlotTargets::new(
             ctx,
             &passes.pyramid,
-            width,
-            height,
-            next_resource_id(),
+            size,
+            poses,
+            generation,
         ));
     }
     t
@@ -101,7 +106,7 @@ impl GpuBackend {
         s: &CullSettings,
     ) -> Result<(Vec<f32>, Vec<f32>), GpuError> {
         let passes = Arc::clone(&self.passes);
-        let guard = lock_targets(&self.ctx, &passes, plans[0].cam.width, plans[0].cam.height);
+        let guard = lock_targets(&self.ctx, &passes, plans);
         let t = guard.as_ref().expect("targets exist");
         if plans.len() > t.slots as usize {
             return Err(GpuError::Readback(format!(
@@ -143,7 +148,7 @@ impl GpuBackend {
         let profile = self.profile.is_some();
         let passes = Arc::clone(&self.passes);
         let (masks, times) = {
-            let guard = lock_targets(&self.ctx, &passes, plans[0].cam.width, plans[0].cam.height);
+            let guard = lock_targets(&self.ctx, &passes, plans);
             self.record_with(guard.as_ref().expect("targets exist"), plans, s, profile)?
         };
         if let (Some(total), Some(t)) = (&mut self.profile, times) {

@@ -254,9 +254,15 @@ impl GpuDevice {
             })
     }
 
-    /// Compiles a kernel with the shared definitions of `common.wgsl` prepended.
+    /// Compiles a kernel with the constants shared with Rust (`super::prelude`) and the
+    /// definitions of `common.wgsl` prepended.
     pub fn shader(&self, label: &str, source: &str) -> wgpu::ShaderModule {
-        let code = format!("{}\n{}", include_str!("shaders/common.wgsl"), source);
+        let code = format!(
+            "{}\n{}\n{}",
+            super::prelude::wgsl(),
+            include_str!("shaders/common.wgsl"),
+            source
+        );
         self.device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),

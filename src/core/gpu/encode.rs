@@ -2,6 +2,7 @@
 //! here records.
 
 use super::counted::Encoder;
+use super::prelude::{GRID_WORKGROUP, LINEAR_WORKGROUP};
 
 pub(crate) fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -50,10 +51,11 @@ pub(crate) fn texture_entry(
     }
 }
 
-/// Records a 1-D compute pass of `invocations` threads in workgroups of `wg`, with
+/// Records a 1-D compute pass of `invocations` threads in workgroups of
+/// [`LINEAR_WORKGROUP`], with
 /// `bind_group` bound at uniform slot `slot`; nothing when `invocations` is 0. Wide
 /// dispatches wrap into rows of at most 65535 workgroups (the per-dimension limit), so
-/// kernels index `g.x + g.y · num_workgroups.x · wg`.
+/// kernels index `g.x + g.y · num_workgroups.x · LINEAR_WORKGROUP`.
 pub(crate) fn record_wide(
     encoder: &mut Encoder<'_>,
     label: &str,
@@ -61,13 +63,12 @@ pub(crate) fn record_wide(
     bind_group: &wgpu::BindGroup,
     slot: u32,
     invocations: u32,
-    wg: u32,
 ) {
     const MAX_DIM: u32 = 65_535;
     if invocations == 0 {
         return;
     }
-    let groups = invocations.div_ceil(wg);
+    let groups = invocations.div_ceil(LINEAR_WORKGROUP);
     let mut pass = encoder.compute_pass(label);
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, bind_group, &[(slot as u64 * UNIFORM_SLOT) as u32]);
@@ -92,7 +93,8 @@ pub(crate) fn record_grid(
     let mut pass = encoder.compute_pass(label);
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, bind_group, &[(slot as u64 * UNIFORM_SLOT) as u32]);
-    pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), slots);
+    let side = GRID_WORKGROUP;
+    pass.dispatch_workgroups(width.div_ceil(side), height.div_ceil(side), slots);
 }
 
 /// Uniform slots are 256 bytes apart (the dynamic-offset alignment every adapter accepts).

@@ -4,7 +4,12 @@
 //! - [`device`]: adapter, device and queue (honours `WGPU_*` environment variables),
 //!   and the optional features found there.
 //! - [`context`]: [`GpuContext`], a device plus the passes every scene shares.
+//! - [`counted`]: counts of the buffers, bind groups, passes and submissions made
+//!   (every one goes through `GpuDevice` and its counting [`counted::Encoder`]).
+//! - [`prelude`]: the constants the kernels share with Rust, generated into every
+//!   shader from the Rust ones.
 //! - [`encode`]: binding entries, uniform slots and dispatch shapes.
+//! - [`arena`]: grow-only buffers and cached bind groups, kept between batches.
 //! - [`scene_buffers`]: a scene's vertices, indices and test boxes, uploaded once.
 //! - [`raster`]: occluder raster (view depth) and oracle raster (object IDs), sharing
 //!   one invariant vertex stage (twin: `hom/raster.rs`).
@@ -16,11 +21,13 @@
 //!   occluders' depth buffer (early depth tests where the adapter can force them),
 //!   writing a second bitmask (twin: `hom/refine.rs`).
 //! - [`oracle`]: ID buffer → visibility bitmask (compute; twin: `hom/oracle.rs`).
-//! - [`targets`], [`passes`]: the per-slot render targets and the pipelines every
-//!   scene on a device shares.
+//! - [`targets`], [`passes`]: the atlas (a viewport-sized slot per pose of a group)
+//!   and the pipelines every scene on a device shares.
+//! - [`inputs`]: what a batch writes before it records (pose uniforms, draws, each
+//!   pass's inputs), in buffers kept between batches.
 //! - [`readback`]: buffer and texture readback.
 //! - [`batch`]: [`GpuBackend`], which records all passes of a batch of poses into one
-//!   submission with one readback.
+//!   submission with one readback, a fixed number of passes per group of poses.
 //! - [`profile`]: GPU time per pass from timestamps written between the passes.
 //!
 //! Tests run every pass and its CPU twin on the same input.
@@ -34,6 +41,7 @@ pub mod encode;
 pub mod inputs;
 pub mod oracle;
 pub mod passes;
+pub mod prelude;
 pub mod profile;
 pub mod pyramid;
 pub mod raster;

@@ -14,9 +14,8 @@ use super::encode::{UNIFORM_SLOT, uniform_entry};
 use super::scene_buffers::SceneBuffers;
 use super::targets::{DepthUse, SlotTargets};
 
+pub use super::prelude::NO_OBJECT;
 pub use super::targets::{DEPTH_FORMAT, ID_FORMAT, OCCLUSION_FORMAT};
-/// Cleared ID: no object at this pixel.
-pub const NO_OBJECT: u32 = u32::MAX;
 
 /// What a raster pass writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -59,9 +59,6 @@ pub struct RefinePass {
     raster: wgpu::RenderPipeline,
 }
 
-/// Workgroup size of `filter_draws`.
-const WG: u32 = 64;
-
 impl RefinePass {
     pub fn new(ctx: &GpuDevice, raster: &RasterPass) -> Self {
         let device = &ctx.device;
@@ -306,7 +303,6 @@ impl RefineInputs {
                 filter_bg,
                 g as u32,
                 count,
-                WG,
             );
         }
         let raster_bg = self.raster_bind.current();

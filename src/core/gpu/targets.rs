@@ -11,7 +11,9 @@
 //!
 //! Memory is bounded: a group holds at most [`MAX_SLOTS`] poses, fewer where the
 //! viewport is large ([`slot_budget`] per adapter) or the atlas would pass the
-//! adapter's largest texture; larger batches run as several groups.
+//! adapter's largest texture; larger batches run as several groups. Below that bound
+//! the atlas grows with the batches it serves (to the next power of two of the largest
+//! batch seen), so a server answering single poses holds a slot or two.
 
 use super::counted::Encoder;
 use super::device::GpuDevice;
@@ -110,16 +112,18 @@ impl Atlas {
 }
 
 impl SlotTargets {
+    /// An atlas for at least `poses` poses (a power of two), or as many as
+    /// [`slots_for`] allows.
     pub(crate) fn new(
         gpu: &GpuDevice,
         pyramid: &PyramidPass,
-        width: u32,
-        height: u32,
+        (width, height): (u32, u32),
+        poses: u32,
         generation: u64,
     ) -> Self {
         let layout = LevelLayout::new(width, height);
         let (_, pyramid_stride) = buffer_levels(&layout);
-        let slots = slots_for(gpu, width, height);
+        let slots = slots_for(gpu, width, height).min(poses.max(1).next_power_of_two());
         let cols = (gpu.device.limits().max_texture_dimension_2d / width).max(1);
         let cols = cols.min(slots);
         let (aw, ah) = (cols * width, slots.div_ceil(cols) * height);

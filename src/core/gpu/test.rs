@@ -9,6 +9,7 @@ use super::device::GpuDevice;
 use super::encode::{
     record_wide, slotted, storage_entry, texture_entry, uniform_entry, uniform_slot,
 };
+use super::prelude::{deb_code, method_code};
 use super::pyramid::buffer_levels;
 use super::targets::SlotTargets;
 use crate::core::cull::PosePlan;
@@ -53,12 +54,8 @@ impl TestConfig {
         }
         TestConfig {
             levels: layout.levels() as u32,
-            method: (method == Method::Hzb) as u32,
-            deb: match deb {
-                DebVariant::Plane => 0,
-                DebVariant::Tiles => 1,
-                DebVariant::Raster => 2,
-            },
+            method: method_code(method),
+            deb: deb_code(deb),
             deb_tile,
             deb_cols,
             deb_rows,
@@ -88,9 +85,6 @@ pub struct TestPass {
     pub layout: wgpu::BindGroupLayout,
     pipeline: wgpu::ComputePipeline,
 }
-
-/// Workgroup size of the test kernel.
-const WG: u32 = 64;
 
 impl TestPass {
     pub fn new(ctx: &GpuDevice) -> Self {
@@ -126,7 +120,6 @@ impl TestPass {
             bind_group,
             group,
             count,
-            WG,
         );
     }
 }

@@ -10,8 +10,8 @@ struct PoseUniform {
     pad: array<vec4<f32>, 6>,
 }
 
-const RECT_EPSILON_PX: f32 = 1e-3;
-const DEPTH_MARGIN: f32 = 1e-4;
+// RECT_EPSILON_PX, DEPTH_MARGIN and the other shared constants come before this file,
+// generated from the Rust ones (`gpu/prelude.rs`).
 
 struct ScreenRect {
     valid: bool,

@@ -15,9 +15,8 @@ struct CollectParams {
 @group(0) @binding(1) var ids: texture_2d<u32>;
 @group(0) @binding(2) var<storage, read_write> mask: array<atomic<u32>>;
 
-const NO_OBJECT: u32 = 0xffffffffu;
 
-@compute @workgroup_size(8, 8, 1)
+@compute @workgroup_size(GRID_WORKGROUP, GRID_WORKGROUP, 1)
 fn collect(@builtin(global_invocation_id) g: vec3<u32>) {
     if g.x >= cp.width || g.y >= cp.height {
         return;

@@ -77,7 +77,7 @@ fn store(slot: u32, l: u32, x: u32, y: u32, v: vec2<f32>) {
     }
 }
 
-@compute @workgroup_size(8, 8, 1)
+@compute @workgroup_size(GRID_WORKGROUP, GRID_WORKGROUP, 1)
 fn downsample(@builtin(global_invocation_id) g: vec3<u32>) {
     let slot = g.z;
     let l = step.src_level + 1u;

@@ -22,13 +22,13 @@ struct DrawArgs {
 @group(0) @binding(2) var<storage, read> draw_pose: array<u32>;
 @group(0) @binding(3) var<storage, read_write> draws: array<DrawArgs>;
 
-@compute @workgroup_size(64, 1, 1)
+@compute @workgroup_size(LINEAR_WORKGROUP, 1, 1)
 fn filter_draws(
     @builtin(global_invocation_id) g: vec3<u32>,
     @builtin(num_workgroups) n: vec3<u32>,
 ) {
     // Dispatches wider than 65535 workgroups wrap into y rows.
-    let k = g.x + g.y * n.x * 64u;
+    let k = g.x + g.y * n.x * LINEAR_WORKGROUP;
     if k >= fp.draw_count {
         return;
     }

@@ -1,13 +1,7 @@
 // Per-object test: one invocation per (pose, test box); a box that may be visible
 // sets its object's bit. CPU twin: `hom/test.rs` (same traversal and comparisons).
 
-const METHOD_HOM: u32 = 0u;
-const METHOD_HZB: u32 = 1u;
-const DEB_PLANE: u32 = 0u;
-const DEB_TILES: u32 = 1u;
-const DEB_RASTER: u32 = 2u;
-const MAX_LEVELS: u32 = 16u;
-const STACK_SIZE: u32 = 52u; // 4 + 3 * MAX_LEVELS
+const STACK_SIZE: u32 = 4u + 3u * MAX_LEVELS;
 
 struct TestConfig {
     levels: u32,
@@ -137,9 +131,9 @@ fn hzb_occluded(r: ScreenRect, slot: u32) -> bool {
     return true;
 }
 
-@compute @workgroup_size(64, 1, 1)
+@compute @workgroup_size(LINEAR_WORKGROUP, 1, 1)
 fn main(@builtin(global_invocation_id) g: vec3<u32>, @builtin(num_workgroups) n: vec3<u32>) {
-    let idx = g.x + g.y * n.x * 64u;
+    let idx = g.x + g.y * n.x * LINEAR_WORKGROUP;
     if idx >= grp.cand_count {
         return;
     }

@@ -1,0 +1,108 @@
+//! The constants the kernels share with Rust, written into every shader's prelude from
+//! the Rust constants themselves, so that the two can never disagree: the box test's
+//! margins, the pyramid's level limit, the method and DEB codes, the cleared object ID
+//! and the workgroup sizes the dispatches are counted in.
+
+use homcull_proto::{DebVariant, Method};
+
+use crate::core::camera::RECT_EPSILON_PX;
+use crate::core::cull::deb::DEPTH_MARGIN;
+use crate::core::hom::MAX_LEVELS;
+
+/// Threads per workgroup of the one-dimensional kernels (box test, refinement filter).
+pub const LINEAR_WORKGROUP: u32 = 64;
+/// Threads per side of the 8×8 workgroups of the per-pixel kernels (pyramid, collect).
+pub const GRID_WORKGROUP: u32 = 8;
+/// Cleared ID: no object at this pixel.
+pub const NO_OBJECT: u32 = u32::MAX;
+
+/// The box test's method code (`TestConfig::method`).
+pub fn method_code(method: Method) -> u32 {
+    match method {
+        Method::Hzb => 1,
+        _ => 0,
+    }
+}
+
+/// The box test's DEB code (`TestConfig::deb`).
+pub fn deb_code(deb: DebVariant) -> u32 {
+    match deb {
+        DebVariant::Plane => 0,
+        DebVariant::Tiles => 1,
+        DebVariant::Raster => 2,
+    }
+}
+
+/// WGSL `const` declarations of every shared constant.
+pub fn wgsl() -> String {
+    // `{:?}` prints the shortest decimal that reads back as the same f32.
+    format!(
+        "// Generated from the Rust constants (gpu/prelude.rs).\n\
+         const RECT_EPSILON_PX: f32 = {RECT_EPSILON_PX:?};\n\
+         const DEPTH_MARGIN: f32 = {DEPTH_MARGIN:?};\n\
+         const MAX_LEVELS: u32 = {MAX_LEVELS}u;\n\
+         const METHOD_HOM: u32 = {}u;\n\
+         const METHOD_HZB: u32 = {}u;\n\
+         const DEB_PLANE: u32 = {}u;\n\
+         const DEB_TILES: u32 = {}u;\n\
+         const DEB_RASTER: u32 = {}u;\n\
+         const NO_OBJECT: u32 = {NO_OBJECT}u;\n\
+         const LINEAR_WORKGROUP: u32 = {LINEAR_WORKGROUP}u;\n\
+         const GRID_WORKGROUP: u32 = {GRID_WORKGROUP}u;\n",
+        method_code(Method::Hom),
+        method_code(Method::Hzb),
+        deb_code(DebVariant::Plane),
+        deb_code(DebVariant::Tiles),
+        deb_code(DebVariant::Raster),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn floats_read_back_exactly() {
+        let text = wgsl();
+        let value = |name: &str| -> f32 {
+            let line = text.lines().find(|l| l.contains(name)).unwrap();
+            line.rsplit("= ")
+                .next()
+                .unwrap()
+                .trim_end_matches(';')
+                .parse()
+                .unwrap()
+        };
+        assert_eq!(value("RECT_EPSILON_PX"), RECT_EPSILON_PX);
+        assert_eq!(value("DEPTH_MARGIN"), DEPTH_MARGIN);
+    }
+
+    #[test]
+    fn no_kernel_declares_a_shared_constant_itself() {
+        let kernels = [
+            include_str!("shaders/common.wgsl"),
+            include_str!("shaders/raster.wgsl"),
+            include_str!("shaders/refine.wgsl"),
+            include_str!("shaders/refine_early.wgsl"),
+            include_str!("shaders/pyramid.wgsl"),
+            include_str!("shaders/test.wgsl"),
+            include_str!("shaders/oracle.wgsl"),
+        ];
+        let prelude = wgsl();
+        let shared: Vec<&str> = prelude
+            .lines()
+            .filter_map(|l| l.strip_prefix("const "))
+            .map(|l| l.split(':').next().unwrap())
+            .collect();
+        assert_eq!(shared.len(), 11);
+        for k in kernels {
+            for name in &shared {
+                assert!(!k.contains(&format!("const {name}")), "{name} is generated");
+            }
+            // Workgroup sizes come from the prelude, never as literals.
+            for l in k.lines().filter(|l| l.contains("@workgroup_size")) {
+                assert!(l.contains("_WORKGROUP"), "{l}");
+            }
+        }
+    }
+}
