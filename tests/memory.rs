@@ -199,7 +199,7 @@ async fn a_resident_scene_costs_at_most_four_times_its_glb() {
     );
     // 1.5× + 32 MiB: the batch's own buffers, the driver's shader variants compiled on
     // first draw and allocator arenas come on top (measured +108–113 MiB for 84 MiB of
-    // targets as 16 texture layers; +148 MiB since they are one 3840×2160 atlas, whose
+    // targets as 16 texture layers; +148 MiB since they are one 15360×540 atlas, whose
     // single large attachment costs the software rasterizer more per pass). Keeping
     // level 0 in the pyramid buffers again (+66 MiB) would fail this.
     assert!(
