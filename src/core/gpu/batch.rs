@@ -200,6 +200,7 @@ impl GpuBackend {
         tracing::debug!(
             target: "homcull::timing",
             poses = plans.len(),
+            method = ?s.options.method,
             record_ms = started.elapsed().as_secs_f64() * 1e3,
             "recorded a batch"
         );
