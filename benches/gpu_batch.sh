@@ -12,7 +12,7 @@ BIN=${BIN:-target/release/homcull}
 OUT=${OUT:-gpu_batch_out}
 SCENES=${SCENES:-"demo ../shared/scenes/munich.glb"}
 mkdir -p "$OUT"
-printf 'scene\tbatch\tposes\thom-refine ms/pose p50\texact ms/pose p50\thom host us/pose (record + submit)\n' \
+printf 'scene\tbatch\tposes\thom-refine ms/pose p50\texact ms/pose p50\thost us/pose (record + submit)\n' \
     | tee "$OUT/summary.tsv"
 for scene in $SCENES; do
     if [ "$scene" = demo ]; then
@@ -28,17 +28,17 @@ for scene in $SCENES; do
         RUST_LOG=homcull::timing=debug "$BIN" eval --backend gpu "${source[@]}" \
             --random "$poses" --batch "$batch" --methods hom-refine --json \
             > "$base.json" 2> "$base.log"
-        # Host time of HOM's batches: each "recorded a batch … method=Hom" line and
-        # the submission line after it; the first (warm-up) batch is left out.
+        # Host time per pose (recording, finish + submit) of every batch of either
+        # method, the first (warm-up) left out: each "recorded a batch" line and the
+        # submission line after it.
         host=$(awk '
-            /recorded a batch/ && /method=Hom/ {
-                hom = 1; n = $0; sub(/.*poses=/, "", n); sub(/ .*/, "", n)
-                r = $0; sub(/.*record_ms=/, "", r); sub(/ .*/, "", r); next }
-            /recorded a batch/ { hom = 0; next }
-            /GPU submission/ && hom {
+            /recorded a batch/ {
+                n = $0; sub(/.*poses=/, "", n); sub(/ .*/, "", n)
+                r = $0; sub(/.*record_ms=/, "", r); sub(/ .*/, "", r); open = 1; next }
+            /GPU submission/ && open {
                 s = $0; sub(/.*submit_ms=/, "", s); sub(/ .*/, "", s)
                 if (seen++) { ms += r + s; p += n }
-                hom = 0 }
+                open = 0 }
             END { if (p) printf "%.0f", ms * 1000 / p; else printf "-" }' "$base.log")
         p50() { tr -d ' \n' < "$base.json" | grep -o "\"$1\":{[^}]*}" \
             | grep -o '"p50":[0-9.e-]*' | cut -d: -f2; }

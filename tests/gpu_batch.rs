@@ -9,7 +9,7 @@ use common::scenes::settings;
 use homcull::core::camera::Camera;
 use homcull::core::cull::{CullSettings, Culler, PosePlan, PreparedScene, plan};
 use homcull::core::gpu::targets::slots_for;
-use homcull::core::gpu::{GpuBackend, RecordCounts};
+use homcull::core::gpu::{GpuBackend, GpuContext, GpuOptions, RecordCounts};
 use homcull::core::occluders::OccluderParams;
 use homcull::core::sampler::PoseSampler;
 use homcull::core::scene::demo_city;
@@ -106,4 +106,57 @@ fn a_batch_larger_than_one_atlas_runs_in_groups_with_the_answers_of_single_poses
         assert_eq!(single[0], masks[k], "pose {k}: batch and single differ");
         assert!(masks[k].iter().any(|&w| w != 0), "pose {k} sees something");
     }
+}
+
+/// The refinement issues only the box test's survivors (compacted on the GPU where the
+/// adapter draws with an indirect count), and the answers are those of the path that
+/// draws every candidate with an instance count of 0 or 1.
+#[test]
+fn the_refinement_draws_only_the_box_tests_survivors() {
+    let Some(gpu) = common::gpu() else { return };
+    let prep = PreparedScene::new(demo_city(), OccluderParams::default());
+    let mut backend = GpuBackend::new(gpu.clone(), &prep);
+    let hom = settings(&prep, Method::Hom, DebVariant::Raster, true);
+    let boxes = settings(&prep, Method::Hom, DebVariant::Raster, false);
+    let batch = plans(&prep, 16, [960, 540], &hom);
+    let box_masks = backend.visibility(&prep, &batch, &boxes).unwrap();
+    let refined = backend.visibility(&prep, &batch, &hom).unwrap();
+    let Some(draws) = backend.refine_draws().unwrap() else {
+        assert!(
+            !gpu.indirect_count,
+            "the adapter draws with a count, so the draws are compacted"
+        );
+        return;
+    };
+    let bit = |m: &[u32], id: u32| m[id as usize / 32] & (1 << (id % 32)) != 0;
+    let (mut candidates, mut survivors) = (0, 0);
+    for (k, p) in batch.iter().enumerate() {
+        let drawn = p
+            .candidates
+            .iter()
+            .filter(|&&id| prep.scene.objects[id as usize].index_count > 0);
+        let expected = drawn.clone().filter(|&&id| bit(&box_masks[k], id)).count();
+        assert_eq!(
+            draws[k] as usize, expected,
+            "pose {k}: draws = box survivors"
+        );
+        candidates += drawn.count();
+        survivors += expected;
+    }
+    eprintln!(
+        "refinement draws per pose: {:.0} survivors of {:.0} candidates",
+        survivors as f64 / batch.len() as f64,
+        candidates as f64 / batch.len() as f64
+    );
+    assert!(survivors < candidates, "the box test culls something");
+    // The same answers where every candidate is drawn with an instance count of 0 or 1.
+    let options = GpuOptions {
+        indirect_count: false,
+        ..GpuOptions::from_env()
+    };
+    let uncounted = std::sync::Arc::new(GpuContext::with_options(options).unwrap());
+    assert!(!uncounted.indirect_count);
+    let mut backend = GpuBackend::new(uncounted, &prep);
+    assert_eq!(backend.visibility(&prep, &batch, &hom).unwrap(), refined);
+    assert_eq!(backend.refine_draws().unwrap(), None);
 }

@@ -140,6 +140,19 @@ impl GpuBackend {
         Ok((opacity, depth))
     }
 
+    /// The refinement draws each pose of the last refined batch issued (its box
+    /// test's survivors with triangles), where the adapter compacts them on the GPU;
+    /// `None` elsewhere. For tests and measurements: one extra readback.
+    pub fn refine_draws(&self) -> Result<Option<Vec<u32>>, GpuError> {
+        let refine = &self.inputs.refine;
+        if !refine.compacted() {
+            return Ok(None);
+        }
+        let bytes = self.inputs.poses_count as u64 * 4;
+        let read = read_buffer(&self.ctx, self.ctx.encoder(), refine.counts.get(), bytes)?;
+        Ok(Some(bytemuck::pod_collect_to_vec(&read)))
+    }
+
     fn record_and_read(
         &mut self,
         plans: &[PosePlan],

@@ -32,6 +32,8 @@ impl From<GpuError> for CullError {
 pub struct GpuOptions {
     /// See [`GpuDevice::indirect_draws`]; env `HOMCULL_NO_INDIRECT` turns it off.
     pub indirect_draws: bool,
+    /// See [`GpuDevice::indirect_count`]; env `HOMCULL_NO_INDIRECT_COUNT` turns it off.
+    pub indirect_count: bool,
     /// See [`GpuDevice::early_depth_test`]; env `HOMCULL_NO_EARLY_Z` turns it off.
     pub early_depth_test: bool,
 }
@@ -40,6 +42,7 @@ impl GpuOptions {
     pub fn from_env() -> Self {
         GpuOptions {
             indirect_draws: std::env::var_os("HOMCULL_NO_INDIRECT").is_none(),
+            indirect_count: std::env::var_os("HOMCULL_NO_INDIRECT_COUNT").is_none(),
             early_depth_test: std::env::var_os("HOMCULL_NO_EARLY_Z").is_none(),
         }
     }
@@ -54,6 +57,11 @@ pub struct GpuDevice {
     /// indirect execution and a non-zero first instance in indirect draws); without
     /// it, one draw call per object.
     pub indirect_draws: bool,
+    /// The refinement draws only the box test's survivors, compacted on the GPU and
+    /// drawn with a count the GPU wrote (`multi_draw_indexed_indirect_count`, feature
+    /// `MULTI_DRAW_INDIRECT_COUNT`); without it, every candidate with an instance count
+    /// of 0 or 1.
+    pub indirect_count: bool,
     /// The refinement tests its fragments against the occluders' own depth buffer
     /// before its fragment shader runs (`@early_depth_test(force)`, feature
     /// `SHADER_EARLY_DEPTH_TEST`); without it, the shader compares with the occlusion
@@ -108,6 +116,11 @@ impl GpuDevice {
                 .flags
                 .contains(wgpu::DownlevelFlags::INDIRECT_EXECUTION)
             && options.indirect_draws;
+        let indirect_count = indirect_draws
+            && options.indirect_count
+            && adapter
+                .features()
+                .contains(wgpu::Features::MULTI_DRAW_INDIRECT_COUNT);
         let early_depth_test = options.early_depth_test
             && adapter
                 .features()
@@ -125,6 +138,9 @@ impl GpuDevice {
         if early_depth_test {
             required_features |= wgpu::Features::SHADER_EARLY_DEPTH_TEST;
         }
+        if indirect_count {
+            required_features |= wgpu::Features::MULTI_DRAW_INDIRECT_COUNT;
+        }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("homcull"),
             required_limits: limits,
@@ -137,6 +153,7 @@ impl GpuDevice {
             queue,
             info,
             indirect_draws,
+            indirect_count,
             early_depth_test,
             timestamps,
             counters: Default::default(),

@@ -152,6 +152,7 @@ impl BatchInputs {
                 gpu,
                 &passes.refine,
                 t,
+                scene,
                 objects,
                 plans,
                 &self.groups,

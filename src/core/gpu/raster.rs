@@ -98,8 +98,17 @@ impl RasterPass {
                 }
             }
             DrawList::Indirect(buffer, first, count) => {
-                let stride = std::mem::size_of::<wgpu::util::DrawIndexedIndirectArgs>() as u64;
-                pass.multi_draw_indexed_indirect(buffer, first as u64 * stride, count);
+                pass.multi_draw_indexed_indirect(buffer, first as u64 * DRAW_ARGS_BYTES, count);
+            }
+            DrawList::IndirectCount {
+                buffer,
+                first,
+                counts,
+                at,
+                max,
+            } => {
+                let offset = first as u64 * DRAW_ARGS_BYTES;
+                pass.multi_draw_indexed_indirect_count(buffer, offset, counts, at as u64 * 4, max);
             }
         }
     }
@@ -216,12 +225,22 @@ fn vertex_state(module: &wgpu::ShaderModule) -> wgpu::VertexState<'_> {
     }
 }
 
+/// Bytes of one indexed indirect draw's arguments.
+pub const DRAW_ARGS_BYTES: u64 = std::mem::size_of::<wgpu::util::DrawIndexedIndirectArgs>() as u64;
+
 /// One pose's object draws: `(first_index, index_count, object_id)` each, either
 /// recorded one call per object or read from an indirect buffer (`first` and `count`
-/// in draws) in one call.
+/// in draws) in one call, or the first `counts[at]` (at most `max`) of them.
 pub enum DrawList<'a> {
     Direct(&'a [(u32, u32, u32)]),
     Indirect(&'a wgpu::Buffer, u32, u32),
+    IndirectCount {
+        buffer: &'a wgpu::Buffer,
+        first: u32,
+        counts: &'a wgpu::Buffer,
+        at: u32,
+        max: u32,
+    },
 }
 
 /// The indirect arguments of every pose's draws, one after another, and each pose's

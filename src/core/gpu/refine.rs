@@ -4,8 +4,11 @@
 //! 1b, `crate::eval::loss`): a box's screen rect covers pixels the object does not.
 //!
 //! Two steps per group of poses, after the test pass:
-//! 1. `filter_draws` (compute, `refine.wgsl`) sets each indirect draw's instance count
-//!    to 0 or 1 from the box test's bit, so only survivors are drawn;
+//! 1. `filter_draws` (compute, `refine.wgsl`) expands each candidate `(pose, object)`
+//!    into its draw from the scene's index ranges: where the adapter draws with an
+//!    indirect count, only the box test's survivors, appended to their pose's region
+//!    and counted, so the raster issues only survivors; elsewhere every candidate with
+//!    an instance count of 0 or 1;
 //! 2. one render pass over the group's atlas (each pose in its slot: viewport, scissor
 //!    and uniform offsets) with the occluder raster's own vertex stage (so coverage and
 //!    depth match the occluder raster and the oracle), no colour target, writing a
@@ -26,7 +29,7 @@ use super::encode::{
     UNIFORM_SLOT, record_wide, slotted, storage_entry, uniform_entry, uniform_slot,
 };
 use super::raster::{
-    DepthTest, DrawList, RasterPass, indirect_args, object_draws, triangle_pipeline,
+    DRAW_ARGS_BYTES, DepthTest, DrawList, RasterPass, object_draws, triangle_pipeline,
 };
 use super::scene_buffers::SceneBuffers;
 use super::targets::{DepthUse, SlotTargets};
@@ -39,7 +42,8 @@ pub struct FilterParams {
     pub first_draw: u32,
     pub draw_count: u32,
     pub words_per_pose: u32,
-    pub _pad: u32,
+    /// 1: survivors appended to their pose's region and counted.
+    pub compact: u32,
 }
 
 /// `RefineParams` in `raster.wgsl`: one pose, a uniform slot each.
@@ -69,7 +73,10 @@ impl RefinePass {
                 uniform_entry(0, true, wgpu::ShaderStages::COMPUTE),
                 storage_entry(1, true),
                 storage_entry(2, true),
-                storage_entry(3, false),
+                storage_entry(3, true),
+                storage_entry(4, true),
+                storage_entry(5, false),
+                storage_entry(6, false),
             ],
         );
         let filter = ctx.compute_pipeline(&filter_pl, &module, "filter_draws");
@@ -124,35 +131,50 @@ impl RefinePass {
 }
 
 /// The refinement's inputs and bind groups, kept between batches (`super::arena`):
-/// every pose's candidates as draws (indirect, filtered on the GPU to the box test's
-/// survivors; or one call per candidate where indirect draws are missing), the second
-/// bitmask, and the per-group and per-pose params.
+/// every pose's candidates as `(pose, object)` pairs, expanded on the GPU into the
+/// draws of the box test's survivors (or, where indirect draws are missing, one call
+/// per candidate), the second bitmask, and the per-group and per-pose params.
 pub(crate) struct RefineInputs {
+    /// `[pose, object]` of every candidate with triangles, pose after pose.
+    draw_objects: GrowBuffer,
+    /// Per pose: its first entry in `draw_objects` (and its region of `draws`).
+    pose_first: GrowBuffer,
+    /// The draws, written by the filter.
     draws: GrowBuffer,
-    draw_pose: GrowBuffer,
+    /// Per pose: survivors appended to its region (when compacting).
+    pub(crate) counts: GrowBuffer,
     filter_params: GrowBuffer,
     pose_params: GrowBuffer,
     pub(crate) refined: GrowBuffer,
-    /// Per pose: `(first, count)` in `draws`.
+    /// Per pose: `(first, count)` in `draw_objects`.
     ranges: Vec<(u32, u32)>,
     /// Per pose: its direct draws (without indirect draws).
     direct: Vec<Vec<(u32, u32, u32)>>,
-    /// Indirect draws per group (for the filter dispatch).
+    /// Candidates per group (for the filter dispatch).
     group_draws: Vec<u32>,
     filter_bind: BindCache,
     raster_bind: BindCache,
     indirect: bool,
+    /// Survivors are compacted and drawn with a GPU-written count.
+    compact: bool,
     /// Bytes of the refined bitmask this batch.
     mask_bytes: u64,
+    poses: u32,
 }
 
 impl RefineInputs {
     pub(crate) fn new() -> Self {
         let storage = wgpu::BufferUsages::STORAGE;
         let uniform = wgpu::BufferUsages::UNIFORM;
+        let indirect = wgpu::BufferUsages::INDIRECT;
         RefineInputs {
-            draws: GrowBuffer::new("refine draws", wgpu::BufferUsages::INDIRECT | storage),
-            draw_pose: GrowBuffer::new("refine draw pose", storage),
+            draw_objects: GrowBuffer::new("refine candidates", storage),
+            pose_first: GrowBuffer::new("refine pose first draw", storage),
+            draws: GrowBuffer::new("refine draws", indirect | storage),
+            counts: GrowBuffer::new(
+                "refine draw counts",
+                indirect | storage | wgpu::BufferUsages::COPY_SRC,
+            ),
             filter_params: GrowBuffer::new("refine filter params", uniform),
             pose_params: GrowBuffer::new("refine params", uniform),
             refined: GrowBuffer::new(
@@ -165,7 +187,9 @@ impl RefineInputs {
             filter_bind: BindCache::default(),
             raster_bind: BindCache::default(),
             indirect: false,
+            compact: false,
             mask_bytes: 0,
+            poses: 0,
         }
     }
 
@@ -178,44 +202,55 @@ impl RefineInputs {
         gpu: &GpuDevice,
         pass: &RefinePass,
         t: &SlotTargets,
+        scene: &SceneBuffers,
         object_ranges: &[(u32, u32)],
         plans: &[PosePlan],
         groups: &[(u32, u32)],
         box_mask: &GrowBuffer,
         words: u32,
     ) {
-        let draws = plans
-            .iter()
-            .map(|p| object_draws(object_ranges, &p.candidates));
         self.indirect = gpu.indirect_draws;
+        self.compact = gpu.indirect_count;
+        self.poses = plans.len() as u32;
         self.group_draws.clear();
         if self.indirect {
-            let (args, ranges) = indirect_args(draws);
-            self.draws.write(gpu, &args);
-            let draw_pose: Vec<u32> = ranges
-                .iter()
-                .enumerate()
-                .flat_map(|(p, &(_, n))| std::iter::repeat_n(p as u32, n as usize))
-                .collect();
+            let mut pairs: Vec<[u32; 2]> = Vec::new();
+            self.ranges.clear();
+            for (p, plan) in plans.iter().enumerate() {
+                let first = pairs.len() as u32;
+                let drawn = plan
+                    .candidates
+                    .iter()
+                    .filter(|&&id| object_ranges[id as usize].1 > 0);
+                pairs.extend(drawn.map(|&id| [p as u32, id]));
+                self.ranges.push((first, pairs.len() as u32 - first));
+            }
             let params: Vec<FilterParams> = groups
                 .iter()
                 .map(|&(a, b)| {
-                    let first = ranges[a as usize].0;
-                    let (last, n) = ranges[b as usize - 1];
+                    let first = self.ranges[a as usize].0;
+                    let (last, n) = self.ranges[b as usize - 1];
                     FilterParams {
                         first_draw: first,
                         draw_count: last + n - first,
                         words_per_pose: words,
-                        _pad: 0,
+                        compact: self.compact as u32,
                     }
                 })
                 .collect();
             self.group_draws.extend(params.iter().map(|p| p.draw_count));
             self.filter_params.write(gpu, &slotted(&params));
-            self.draw_pose.write(gpu, bytemuck::cast_slice(&draw_pose));
-            self.ranges = ranges;
+            self.draw_objects.write(gpu, bytemuck::cast_slice(&pairs));
+            let firsts: Vec<u32> = self.ranges.iter().map(|r| r.0).collect();
+            self.pose_first.write(gpu, bytemuck::cast_slice(&firsts));
+            self.draws
+                .reserve(gpu, pairs.len() as u64 * DRAW_ARGS_BYTES);
+            self.counts.reserve(gpu, self.poses as u64 * 4);
         } else {
-            self.direct = draws.collect();
+            self.direct = plans
+                .iter()
+                .map(|p| object_draws(object_ranges, &p.candidates))
+                .collect();
         }
         self.mask_bytes = (plans.len() as u32 * words) as u64 * 4;
         self.refined.reserve(gpu, self.mask_bytes);
@@ -227,14 +262,23 @@ impl RefineInputs {
             })
             .collect();
         self.pose_params.write(gpu, &slotted(&pose_params));
-        self.bind(gpu, pass, t, box_mask);
+        self.bind(gpu, pass, t, scene, box_mask);
     }
 
     /// Makes (or keeps) the filter's and the raster's bind groups.
-    fn bind(&mut self, gpu: &GpuDevice, pass: &RefinePass, t: &SlotTargets, mask: &GrowBuffer) {
+    fn bind(
+        &mut self,
+        gpu: &GpuDevice,
+        pass: &RefinePass,
+        t: &SlotTargets,
+        scene: &SceneBuffers,
+        mask: &GrowBuffer,
+    ) {
         let RefineInputs {
+            draw_objects,
+            pose_first,
             draws,
-            draw_pose,
+            counts,
             filter_params,
             pose_params,
             refined,
@@ -244,7 +288,14 @@ impl RefineInputs {
             ..
         } = self;
         if *indirect {
-            let key = [mask.id(), draws.id(), draw_pose.id(), filter_params.id()];
+            let key = [
+                mask.id(),
+                draw_objects.id(),
+                pose_first.id(),
+                draws.id(),
+                counts.id(),
+                filter_params.id(),
+            ];
             filter_bind.get(&key, || {
                 gpu.bind_group(
                     "refine filter",
@@ -252,8 +303,11 @@ impl RefineInputs {
                     vec![
                         uniform_slot::<FilterParams>(filter_params.get()),
                         mask.get().as_entire_binding(),
-                        draw_pose.get().as_entire_binding(),
+                        draw_objects.get().as_entire_binding(),
+                        scene.objects.as_entire_binding(),
+                        pose_first.get().as_entire_binding(),
                         draws.get().as_entire_binding(),
+                        counts.get().as_entire_binding(),
                     ],
                 )
             });
@@ -273,11 +327,21 @@ impl RefineInputs {
         });
     }
 
-    /// Clears the refined bitmask (before the batch's first group).
+    /// Clears the refined bitmask and the draw counts (before the batch's first group).
     pub(crate) fn clear(&self, encoder: &mut Encoder<'_>) {
         encoder
             .raw
             .clear_buffer(self.refined.get(), 0, Some(self.mask_bytes));
+        if self.compact {
+            let bytes = self.poses as u64 * 4;
+            encoder.raw.clear_buffer(self.counts.get(), 0, Some(bytes));
+        }
+    }
+
+    /// Whether the last batch compacted its draws (so [`RefineInputs::counts`] holds
+    /// the draws each pose issued).
+    pub(crate) fn compacted(&self) -> bool {
+        self.indirect && self.compact
     }
 
     /// Records the refinement of poses `range` (group `g`), after its box test: the
@@ -316,11 +380,21 @@ impl RefineInputs {
             let offset = (p as u64 * UNIFORM_SLOT) as u32;
             rp.set_bind_group(0, pose_bg, &[offset]);
             rp.set_bind_group(1, raster_bg, &[offset]);
-            let draws = if self.indirect {
-                let (first, count) = self.ranges[p as usize];
-                DrawList::Indirect(self.draws.get(), first, count)
-            } else {
+            let draws = if !self.indirect {
                 DrawList::Direct(&self.direct[p as usize])
+            } else {
+                let (first, count) = self.ranges[p as usize];
+                if self.compact {
+                    DrawList::IndirectCount {
+                        buffer: self.draws.get(),
+                        first,
+                        counts: self.counts.get(),
+                        at: p,
+                        max: count,
+                    }
+                } else {
+                    DrawList::Indirect(self.draws.get(), first, count)
+                }
             };
             RasterPass::draw(&mut rp, draws);
         }

@@ -13,11 +13,14 @@ pub struct GpuTestBox {
 }
 const _: () = assert!(std::mem::size_of::<GpuTestBox>() == 32);
 
-/// Vertex, index and test-box buffers of one scene.
+/// Vertex, index, object and test-box buffers of one scene.
 pub struct SceneBuffers {
     pub vertices: wgpu::Buffer,
     pub indices: wgpu::Buffer,
     pub boxes: wgpu::Buffer,
+    /// `[first_index, index_count]` of every object, from which the refinement's
+    /// draws are expanded on the GPU.
+    pub objects: wgpu::Buffer,
 }
 
 impl SceneBuffers {
@@ -44,6 +47,14 @@ impl SceneBuffers {
         if boxes.is_empty() {
             boxes.push(bytemuck::Zeroable::zeroed());
         }
+        let mut objects: Vec<[u32; 2]> = scene
+            .objects
+            .iter()
+            .map(|o| [o.first_index, o.index_count])
+            .collect();
+        if objects.is_empty() {
+            objects.push([0, 0]);
+        }
         SceneBuffers {
             vertices: init(
                 "scene vertices",
@@ -58,6 +69,11 @@ impl SceneBuffers {
             boxes: init(
                 "scene test boxes",
                 bytemuck::cast_slice(&boxes),
+                wgpu::BufferUsages::STORAGE,
+            ),
+            objects: init(
+                "scene objects",
+                bytemuck::cast_slice(&objects),
                 wgpu::BufferUsages::STORAGE,
             ),
         }

@@ -1,11 +1,15 @@
-// Before the refinement raster: turns off the indirect draws of the objects HOM's box
-// test culled, so only its survivors are drawn again (see `fs_refine` in raster.wgsl).
+// Before the refinement raster: the draws of the box test's survivors, expanded on the
+// GPU from (pose, object) pairs and the scene's index ranges (see `fs_refine` in
+// raster.wgsl). Compacting (`compact`, where the adapter draws with an indirect count):
+// each survivor is appended to its pose's region and counted, so the raster issues
+// only survivors. Otherwise every candidate keeps its place with an instance count of
+// 1 (survivor) or 0.
 
 struct FilterParams {
     first_draw: u32,     // first draw of the group
     draw_count: u32,     // draws in the group
     words_per_pose: u32,
-    _pad: u32,
+    compact: u32,        // 1: append survivors and count them
 }
 
 // wgpu's DrawIndexedIndirectArgs.
@@ -19,8 +23,11 @@ struct DrawArgs {
 
 @group(0) @binding(0) var<uniform> fp: FilterParams;
 @group(0) @binding(1) var<storage, read> box_mask: array<u32>;
-@group(0) @binding(2) var<storage, read> draw_pose: array<u32>;
-@group(0) @binding(3) var<storage, read_write> draws: array<DrawArgs>;
+@group(0) @binding(2) var<storage, read> draw_objects: array<vec2<u32>>; // (pose, object)
+@group(0) @binding(3) var<storage, read> object_ranges: array<vec2<u32>>; // (first index, count)
+@group(0) @binding(4) var<storage, read> pose_first: array<u32>; // a pose's first draw
+@group(0) @binding(5) var<storage, read_write> draws: array<DrawArgs>;
+@group(0) @binding(6) var<storage, read_write> counts: array<atomic<u32>>;
 
 @compute @workgroup_size(LINEAR_WORKGROUP, 1, 1)
 fn filter_draws(
@@ -33,7 +40,17 @@ fn filter_draws(
         return;
     }
     let i = fp.first_draw + k;
-    let id = draws[i].first_instance;
-    let w = draw_pose[i] * fp.words_per_pose + id / 32u;
-    draws[i].instance_count = select(0u, 1u, (box_mask[w] & (1u << (id % 32u))) != 0u);
+    let d = draw_objects[i];
+    let pose = d.x;
+    let id = d.y;
+    let kept = (box_mask[pose * fp.words_per_pose + id / 32u] & (1u << (id % 32u))) != 0u;
+    let r = object_ranges[id];
+    if fp.compact == 0u {
+        draws[i] = DrawArgs(r.y, select(0u, 1u, kept), r.x, 0i, id);
+        return;
+    }
+    if kept {
+        let slot = pose_first[pose] + atomicAdd(&counts[pose], 1u);
+        draws[slot] = DrawArgs(r.y, 1u, r.x, 0i, id);
+    }
 }
