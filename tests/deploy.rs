@@ -107,6 +107,12 @@ fn nginx_installed() -> bool {
 
 /// Runs one check of `tests/deploy_runtime.py` against this build's `homcull`.
 fn runtime_check(test: &str, check: &str, needs_nginx: bool) {
+    python_check(test, RUNTIME, &["--only", check], needs_nginx);
+}
+
+/// Runs `script` with `args` and `--bin` this build's `homcull`; exit 2 (a missing
+/// prerequisite) skips, except on CI.
+fn python_check(test: &str, script: &str, args: &[&str], needs_nginx: bool) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let missing = match python(root, &["--version"]) {
         Ok(out) if out.status.success() => None,
@@ -124,15 +130,11 @@ fn runtime_check(test: &str, check: &str, needs_nginx: bool) {
         return;
     }
     let mut cmd = Command::new("python3");
-    cmd.args([
-        RUNTIME,
-        "--only",
-        check,
-        "--bin",
-        env!("CARGO_BIN_EXE_homcull"),
-    ])
-    .current_dir(root)
-    .env("NO_COLOR", "1");
+    cmd.arg(script)
+        .args(args)
+        .args(["--bin", env!("CARGO_BIN_EXE_homcull")])
+        .current_dir(root)
+        .env("NO_COLOR", "1");
     // Software Vulkan (lavapipe) works headless with these; keep any the caller set.
     for (k, v) in [("WGPU_BACKEND", "vulkan"), ("XDG_RUNTIME_DIR", "/tmp")] {
         if std::env::var_os(k).is_none() {
@@ -140,7 +142,7 @@ fn runtime_check(test: &str, check: &str, needs_nginx: bool) {
         }
     }
     let started = std::time::Instant::now();
-    let out = cmd.output().expect("running tests/deploy_runtime.py");
+    let out = cmd.output().expect("running a python check");
     let report = text(&out);
     println!("{report}");
     if out.status.code() == Some(2) {
@@ -152,7 +154,8 @@ fn runtime_check(test: &str, check: &str, needs_nginx: bool) {
     }
     assert!(
         out.status.success(),
-        "`python3 {RUNTIME} --only {check}` failed (exit {:?}) after {:.1} s; the report is above",
+        "`python3 {script} {}` failed (exit {:?}) after {:.1} s; the report is above",
+        args.join(" "),
         out.status.code(),
         started.elapsed().as_secs_f64()
     );
@@ -166,4 +169,15 @@ fn runs_as_the_image_would() {
 #[test]
 fn scales_out_behind_nginx() {
     runtime_check("scales_out_behind_nginx", "scale_out", true);
+}
+
+/// The image built with podman and run as an operator would (tests/container_runtime.py).
+#[test]
+fn runs_in_a_container() {
+    python_check(
+        "runs_in_a_container",
+        "tests/container_runtime.py",
+        &[],
+        false,
+    );
 }

@@ -1,0 +1,348 @@
+"""homcull's container image, built and run with podman as an operator would.
+
+No container registry is reachable from the machines this runs on, but Debian's
+packages are, so:
+
+  1. a base image `localhost/debian:bookworm-slim` is bootstrapped from Debian itself
+     (`debootstrap --variant=minbase bookworm`, the mirror read from this machine's
+     apt sources at run time) and imported, unless it already exists;
+  2. deploy/Dockerfile's `runtime` stage is built with `--build-arg BINARY_FROM=prebuilt`
+     around the release binary built on this host (same Debian release and glibc; its
+     debug info stripped), since no Rust image can be pulled here; users who can pull
+     one build the whole Dockerfile;
+  3. the image runs as deploy/compose.yaml runs it: its own USER, `--read-only`, a tmpfs
+     /tmp, a named volume on /data, all capabilities dropped, no new privileges, the
+     port published on 127.0.0.1 only.
+
+Checks: the image holds no build tools; it runs as UID 10001; its root is read-only and
+/data writable; its own HEALTHCHECK passes (`podman healthcheck run`); /readyz names the
+backend, the native CPU one, as no GPU is passed in; a cull of the demo answers exactly
+what the host binary answers; an uploaded scene survives a restart on the same volume;
+SIGTERM (`podman stop`) closes an open WebSocket with 1001 and the container exits 0
+within the grace period. The image's size is printed.
+
+podman on these machines needs `--runtime runc --cgroup-manager cgroupfs` (crun refuses
+hybrid cgroups) and explicit ulimits (the sandbox forbids raising them); they are set
+through a containers.conf of this script's own (CONTAINERS_CONF), so that every podman
+call, and podman-compose's, gets them.
+
+Usage: python3 tests/container_runtime.py [--bin PATH]
+Exit status: 0 passed; 1 failed; 2 a prerequisite is missing (podman, debootstrap, ...).
+Everything listens on 127.0.0.1; every container, volume and process it starts is removed
+in a `finally`; the images are kept (a rerun reuses them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import traceback
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import deploy_runtime as dr  # noqa: E402  (HTTP, WebSocket and process helpers)
+
+REPO = dr.REPO
+BASE_IMAGE = "localhost/debian:bookworm-slim"
+IMAGE = "localhost/homcull:ci"
+TIME_LIMIT_S = 600.0  # bootstrap and build included
+CONTAINERS_CONF = """\
+[containers]
+default_ulimits = ["nofile=1024:1024", "nproc=1024:1024"]
+
+[engine]
+runtime = "runc"
+cgroup_manager = "cgroupfs"
+"""
+Failed, Missing, log, expect = dr.Failed, dr.Missing, dr.log, dr.expect
+
+
+def podman(*args: str, timeout: float = 120, check: bool = True) -> subprocess.CompletedProcess:
+    r = subprocess.run(["podman", *args], capture_output=True, text=True, timeout=timeout)
+    if check and r.returncode != 0:
+        raise Failed(f"`podman {' '.join(args)}` exited {r.returncode}: {(r.stdout + r.stderr)[-1500:]}")
+    return r
+
+
+def apt_mirror() -> str:
+    """The Debian mirror this machine's apt uses (deb822 or one-line sources)."""
+    for f in sorted(Path("/etc/apt/sources.list.d").glob("*.sources")):
+        for block in f.read_text().split("\n\n"):
+            fields = dict(re.findall(r"^(\w[\w-]*):\s*(.+)$", block, re.M))
+            if re.search(r"\bbookworm\b", fields.get("Suites", "")) and "URIs" in fields:
+                return fields["URIs"].split()[0]
+    for f in [Path("/etc/apt/sources.list"), *Path("/etc/apt/sources.list.d").glob("*.list")]:
+        if f.is_file():
+            m = re.search(r"^deb\s+(?:\[[^]]*\]\s+)?(\S+)\s+bookworm\s", f.read_text(), re.M)
+            if m:
+                return m.group(1)
+    raise Missing("no Debian bookworm mirror in /etc/apt/sources.list(.d)")
+
+
+# What Debian's own slim images add, so that `apt-get install` in an image leaves no
+# package files behind and no documentation is unpacked.
+APT_CLEAN = """\
+DPkg::Post-Invoke { "rm -f /var/cache/apt/archives/*.deb /var/cache/apt/archives/partial/*.deb /var/cache/apt/*.bin || true"; };
+APT::Update::Post-Invoke { "rm -f /var/cache/apt/archives/*.deb /var/cache/apt/archives/partial/*.deb /var/cache/apt/*.bin || true"; };
+Dir::Cache::pkgcache "";
+Dir::Cache::srcpkgcache "";
+"""
+DPKG_SLIM = """\
+path-exclude /usr/share/doc/*
+path-include /usr/share/doc/*/copyright
+path-exclude /usr/share/man/*
+path-exclude /usr/share/info/*
+path-exclude /usr/share/locale/*
+"""
+
+
+def slim(root: Path) -> None:
+    """Makes a debootstrapped tree what a slim base image is: no package cache, no apt
+    lists, no docs (copyrights kept), and the same for whatever is installed later."""
+    (root / "etc/apt/apt.conf.d/docker-clean").write_text(APT_CLEAN)
+    (root / "etc/dpkg/dpkg.cfg.d/docker-slim").write_text(DPKG_SLIM)
+    for pattern in ("var/cache/apt/archives/*.deb", "var/cache/apt/*.bin", "var/lib/apt/lists/*"):
+        for p in root.glob(pattern):
+            if p.is_file():
+                p.unlink()
+    for d in ("usr/share/man", "usr/share/info", "usr/share/locale"):
+        shutil.rmtree(root / d, ignore_errors=True)
+    for d in (root / "usr/share/doc").glob("*"):
+        for f in d.rglob("*"):
+            if f.is_file() and f.name != "copyright":
+                f.unlink()
+
+
+def ensure_base_image() -> None:
+    if podman("image", "exists", BASE_IMAGE, check=False).returncode == 0:
+        log(f"ok    base image {BASE_IMAGE} present")
+        return
+    if not shutil.which("debootstrap"):
+        raise Missing("debootstrap not found (Debian: apt-get install debootstrap)")
+    mirror = apt_mirror()
+    root = Path(tempfile.mkdtemp(prefix="homcull-rootfs-"))
+    try:
+        t = time.monotonic()
+        r = subprocess.run(["debootstrap", "--variant=minbase", "bookworm", str(root), mirror],
+                           capture_output=True, text=True, timeout=400)
+        expect(r.returncode == 0, f"debootstrap failed: {(r.stdout + r.stderr)[-1500:]}")
+        slim(root)
+        tar = subprocess.Popen(["tar", "-C", str(root), "-c", "."], stdout=subprocess.PIPE)
+        imp = subprocess.run(["podman", "import", "-", BASE_IMAGE], stdin=tar.stdout,
+                             capture_output=True, text=True, timeout=300)
+        tar.wait()
+        expect(imp.returncode == 0 and tar.returncode == 0, f"podman import failed: {imp.stderr[-1000:]}")
+        log(f"ok    base image {BASE_IMAGE} bootstrapped from Debian and imported in "
+            f"{time.monotonic() - t:.0f} s")
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
+
+
+def build_image(bin_path: str) -> int:
+    """Builds the runtime image around `bin_path`; returns its size in bytes."""
+    ctx = Path(tempfile.mkdtemp(prefix="homcull-image-ctx-"))
+    try:
+        exe = ctx / "homcull"
+        shutil.copy2(bin_path, exe)
+        if shutil.which("strip"):
+            subprocess.run(["strip", "--strip-debug", str(exe)], check=True, timeout=120)
+        t = time.monotonic()
+        podman("build", "--format", "docker", "--network", "host", "-f", str(REPO / "deploy" / "Dockerfile"),
+               "--target", "runtime", "--build-arg", "BINARY_FROM=prebuilt", "-t", IMAGE, str(ctx),
+               timeout=400)
+        size = int(podman("image", "inspect", "--format", "{{.Size}}", IMAGE).stdout.strip())
+        log(f"ok    built {IMAGE} (deploy/Dockerfile, target runtime, the host's binary) in "
+            f"{time.monotonic() - t:.0f} s: image size {size / 1e6:.0f} MB (binary {exe.stat().st_size / 1e6:.0f} MB)")
+        return size
+    finally:
+        shutil.rmtree(ctx, ignore_errors=True)
+
+
+def wait_ready(base: str, what: str, timeout: float = 60) -> dict:
+    seen = {}
+
+    def ready():
+        try:
+            st, body = dr.get_json(f"{base}/readyz", timeout=3)
+        except OSError:
+            return False
+        seen["body"] = body
+        return st == 200
+
+    dr.wait_for(ready, timeout, f"{what} to be ready")
+    return seen["body"]
+
+
+def host_server(bin_path: str, port: int, data: Path, procs: dr.Procs) -> str:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("HOMCULL_")}
+    env["XDG_RUNTIME_DIR"] = str(data)
+    procs.start("host", [bin_path, "serve", "--addr", f"127.0.0.1:{port}", "--data-dir", str(data),
+                         "--backend", "cpu"], env)
+    base = f"http://127.0.0.1:{port}"
+    wait_ready(base, "the host binary")
+    return base
+
+
+def poses() -> list[dict]:
+    return [dr.yaw_pose(p, yaw) for p, yaw in (((-60.0, 1.7, 0.0), -1.5707964), ((0.0, 1.7, 3.0), 0.3),
+                                               ((-35.0, 1.7, -30.0), 1.2), ((10.0, 1.7, 10.0), 2.5))]
+
+
+def answers(base: str, sid: str) -> list:
+    st, res = dr.post_json(f"{base}/v1/scenes/{sid}/cull/batch", {"poses": poses()})
+    expect(st == 200, f"cull/batch on {base} answered {st}: {res}")
+    keep = ("objects", "candidates", "culled_by_frustum", "culled_by_occlusion", "occluders_used",
+            "occluder_triangles")
+    return [(r["visible"], {k: r["stats"][k] for k in keep}) for r in res["results"]]
+
+
+def stop_during_stream(name: str, port: int, grace: float) -> None:
+    """`podman stop` while a WebSocket streams: close frame 1001, exit 0 within grace."""
+    ws = dr.WebSocket(port, "/v1/scenes/demo/stream", timeout=15)
+    try:
+        expect(dr.recv_frame(ws)["kind"] == dr.HELLO, "first frame is not hello")
+        dr.send_pose(ws, 1, poses()[0], want_full=True)
+        expect(dr.recv_answer(ws, 1)["kind"] == dr.FULL, "first answer is not a full frame")
+        t = time.monotonic()
+        stopper = threading.Thread(target=podman, args=("stop", "-t", "30", name), kwargs={"timeout": 60})
+        stopper.start()
+        ws.sock.settimeout(grace + dr.GRACE_MARGIN_S)
+        code = None
+        try:
+            while True:
+                dr.recv_frame(ws)
+        except dr.WsClosed as e:
+            code = e.code
+        except socket.timeout:
+            raise Failed("no WebSocket close frame after `podman stop`") from None
+        stopper.join()
+        took = time.monotonic() - t
+        expect(code == 1001, f"WebSocket closed with {code}, expected 1001")
+        rc = podman("inspect", "--format", "{{.State.ExitCode}}", name).stdout.strip()
+        expect(rc == "0", f"the container exited {rc} after SIGTERM, expected 0")
+        expect(took <= grace + dr.GRACE_MARGIN_S, f"`podman stop` took {took:.1f} s (grace {grace:g} s)")
+        log(f"ok    `podman stop` (SIGTERM) with a stream open: close frame 1001, exit 0 in {took:.2f} s "
+            f"(grace {grace:g} s)")
+    finally:
+        ws.close()
+
+
+def run_in_container(bin_path: str) -> None:
+    ensure_base_image()
+    build_image(bin_path)
+    inspect = json.loads(podman("image", "inspect", IMAGE).stdout)[0]
+    expect(inspect.get("Healthcheck") or inspect["Config"].get("Healthcheck"), "the image carries no HEALTHCHECK")
+    tools = podman("run", "--rm", "--entrypoint", "sh", IMAGE, "-c",
+                   "for t in cc gcc rustc cargo ld make; do command -v $t; done; true").stdout.split()
+    expect(not tools, f"build tools in the runtime image: {tools}")
+    log("ok    no build tools in the runtime image (cc, gcc, rustc, cargo, ld, make)")
+
+    tag = f"homcull-test-{os.getpid()}"
+    port, host_port = dr.free_port(), dr.free_port()
+    tmp = Path(tempfile.mkdtemp(prefix="homcull-container-"))
+    procs = dr.Procs(tmp / "logs")
+    (tmp / "logs").mkdir()
+    (tmp / "host-data").mkdir()
+    try:
+        podman("volume", "create", tag)
+        podman("run", "-d", "--name", tag, "--read-only", "--tmpfs", "/tmp:mode=1777", "-v", f"{tag}:/data",
+               "--cap-drop", "ALL", "--security-opt", "no-new-privileges", "-e", "HOMCULL_SHUTDOWN_GRACE_S=10",
+               "-p", f"127.0.0.1:{port}:8080", IMAGE)
+        base = f"http://127.0.0.1:{port}"
+        t = time.monotonic()
+        ready = wait_ready(base, "the container")
+        expect(ready.get("backend") == "cpu" and ready.get("cpu_fallback") is False,
+               f"without a GPU the container should cull on the native CPU backend: {ready}")
+        log(f"ok    container ready in {time.monotonic() - t:.1f} s; /readyz: backend {ready['backend']}, "
+            f"adapter {ready['adapter']!r}")
+
+        pid = podman("inspect", "--format", "{{.State.Pid}}", tag).stdout.strip()
+        uid = re.search(r"^Uid:\s+(\d+)", Path(f"/proc/{pid}/status").read_text(), re.M)
+        expect(uid is not None and uid.group(1) == "10001", f"the server runs as uid {uid and uid.group(1)}")
+        ro = podman("exec", tag, "sh", "-c", "touch /probe", check=False)
+        expect(ro.returncode != 0, "the root file system is writable")
+        podman("exec", tag, "sh", "-c", "touch /data/.probe && rm /data/.probe")
+        hc = podman("healthcheck", "run", tag, check=False)
+        expect(hc.returncode == 0, f"the image's HEALTHCHECK failed: {hc.stdout}{hc.stderr}")
+        log("ok    runs as uid 10001, root read-only, /data writable, HEALTHCHECK passes")
+
+        host = host_server(bin_path, host_port, tmp / "host-data", procs)
+        inside, outside = answers(base, "demo"), answers(host, "demo")
+        expect(inside == outside, "the container and the host binary answer the same culls differently")
+        expect(any(v for v, _ in inside), "every pose sees nothing: the comparison would be vacuous")
+        log(f"ok    {len(inside)} culls of the demo: the container answers exactly as the host binary "
+            f"(visible {[len(v) for v, _ in inside]})")
+
+        st, _, glb = dr.http("GET", f"{base}/v1/scenes/demo/glb")
+        expect(st == 200, f"GET /v1/scenes/demo/glb answered {st}")
+        st, _, body = dr.http("POST", f"{base}/v1/scenes?name=container-test", glb, "model/gltf-binary",
+                              timeout=120)
+        expect(st == 201, f"upload answered {st}: {body[:300]!r}")
+        sid = json.loads(body)["id"]
+        log(f"ok    uploaded the demo's GLB ({len(glb)} B) as scene {sid}")
+
+        stop_during_stream(tag, port, 10.0)
+        podman("start", tag)
+        wait_ready(base, "the restarted container")
+        st, lst = dr.get_json(f"{base}/v1/scenes")
+        expect(st == 200 and any(s["id"] == sid for s in lst["scenes"]),
+               f"scene {sid} did not survive the restart: {lst}")
+        expect(answers(base, sid) == answers(base, "demo"), "the uploaded copy culls unlike the demo")
+        log(f"ok    after a restart on the same volume scene {sid} is back and culls as the demo does")
+    except BaseException:
+        logs = podman("logs", tag, check=False)
+        log(f"container log (tail):\n{(logs.stdout + logs.stderr)[-3000:]}")
+        procs.dump_logs()
+        raise
+    finally:
+        procs.stop_all()
+        podman("rm", "-f", "-t", "0", tag, check=False)
+        podman("volume", "rm", "-f", tag, check=False)
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--bin", default=str(REPO / "target" / "release" / "homcull"), help="the homcull binary")
+    args = ap.parse_args()
+    bin_path = str(Path(args.bin).resolve())
+    if not shutil.which("podman"):
+        log("MISSING podman (Debian: apt-get install podman runc debootstrap)")
+        return 2
+    conf = Path(tempfile.mkdtemp(prefix="homcull-podman-")) / "containers.conf"
+    conf.write_text(CONTAINERS_CONF)
+    os.environ["CONTAINERS_CONF"] = str(conf)
+
+    def alarm(*_):
+        raise Failed(f"the check took longer than {TIME_LIMIT_S:.0f} s")
+
+    signal.signal(signal.SIGALRM, alarm)
+    signal.alarm(int(TIME_LIMIT_S))
+    t = time.monotonic()
+    try:
+        run_in_container(bin_path)
+    except Missing as e:
+        log(f"MISSING {e}")
+        return 2
+    except Exception:  # noqa: BLE001
+        log(f"FAIL  after {time.monotonic() - t:.1f} s:\n{traceback.format_exc()}")
+        return 1
+    finally:
+        signal.alarm(0)
+        shutil.rmtree(conf.parent, ignore_errors=True)
+    log(f"container_runtime: passed in {time.monotonic() - t:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
