@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Lint and cross-check homcull's deployment files (deploy/, .dockerignore).
 
-The image cannot be built on the development machine (Docker client, no engine),
-so this checks everything that can be checked without one:
+This checks everything about the deployment files that can be checked without a
+container engine (tests/container_runtime.py builds and runs the image with podman):
 
 * linters: hadolint on deploy/Dockerfile, yamllint on every YAML file under deploy/,
   kubernetes-validate (offline schemas, --strict) on each Kubernetes manifest, the
@@ -1418,7 +1418,8 @@ def check_readme():
     for needle, why in (("docker build -f deploy/Dockerfile", "docker build command"),
                         ("kubectl apply -k deploy/kubernetes", "kubectl apply -k"),
                         ("compose.gpu.yaml", "GPU compose variant"),
-                        ("no engine", "statement that the image is not built here"),
+                        ("tests/container_runtime.py", "pointer to the container test that builds the image"),
+                        ("Not run here", "statement of what is not built here"),
                         ("sessionAffinity", "sticky sessions explanation")):
         probs.expect(needle in text, f"deploy/README.md lacks the {why} ({needle!r})")
     probs.raise_if_any()
