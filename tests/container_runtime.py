@@ -14,6 +14,10 @@ packages are, so:
      /tmp, a named volume on /data, all capabilities dropped, no new privileges, the
      port published on 127.0.0.1 only.
 
+The same checks then run against `podman-compose up` of deploy/compose.yaml (the
+port published on loopback through HOMCULL_PUBLISH; Debian's podman-compose 1.0.3 is
+handed the file with `env_file`'s long syntax rewritten, which it predates).
+
 Checks: the image holds no build tools; it runs as UID 10001; its root is read-only and
 /data writable; its own HEALTHCHECK passes (`podman healthcheck run`); /readyz names the
 backend, the native CPU one, as no GPU is passed in; a cull of the demo answers exactly
@@ -206,15 +210,45 @@ def answers(base: str, sid: str) -> list:
     return [(r["visible"], {k: r["stats"][k] for k in keep}) for r in res["results"]]
 
 
-def stop_during_stream(name: str, port: int, grace: float) -> None:
-    """`podman stop` while a WebSocket streams: close frame 1001, exit 0 within grace."""
-    ws = dr.WebSocket(port, "/v1/scenes/demo/stream", timeout=15)
+class Deployment:
+    """A running homcull container and how its operator stops and starts it."""
+
+    def __init__(self, what: str, name: str, port: int, stop: list[list[str]], start: list[list[str]]):
+        self.what, self.name, self.port = what, name, port
+        self.base = f"http://127.0.0.1:{port}"
+        self._stop, self._start = stop, start
+
+    def stop(self) -> None:
+        run_all(self._stop)
+
+    def start(self) -> None:
+        run_all(self._start)
+
+
+def run_all(commands: list[list[str]]) -> None:
+    for c in commands:
+        r = subprocess.run(c, capture_output=True, text=True, timeout=90)
+        if r.returncode != 0:
+            raise Failed(f"`{' '.join(c)}` exited {r.returncode}: {(r.stdout + r.stderr)[-1500:]}")
+
+
+def stop_during_stream(d: Deployment, grace: float) -> None:
+    """Stops `d` while a WebSocket streams: close frame 1001, exit 0 within grace."""
+    ws = dr.WebSocket(d.port, "/v1/scenes/demo/stream", timeout=15)
     try:
         expect(dr.recv_frame(ws)["kind"] == dr.HELLO, "first frame is not hello")
         dr.send_pose(ws, 1, poses()[0], want_full=True)
         expect(dr.recv_answer(ws, 1)["kind"] == dr.FULL, "first answer is not a full frame")
         t = time.monotonic()
-        stopper = threading.Thread(target=podman, args=("stop", "-t", "30", name), kwargs={"timeout": 60})
+        failure: list[BaseException] = []
+
+        def stop():
+            try:
+                d.stop()
+            except BaseException as e:  # noqa: BLE001  (reported below)
+                failure.append(e)
+
+        stopper = threading.Thread(target=stop)
         stopper.start()
         ws.sock.settimeout(grace + dr.GRACE_MARGIN_S)
         code = None
@@ -224,17 +258,87 @@ def stop_during_stream(name: str, port: int, grace: float) -> None:
         except dr.WsClosed as e:
             code = e.code
         except socket.timeout:
-            raise Failed("no WebSocket close frame after `podman stop`") from None
+            raise Failed(f"no WebSocket close frame after stopping the {d.what}") from None
         stopper.join()
+        if failure:
+            raise failure[0]
         took = time.monotonic() - t
         expect(code == 1001, f"WebSocket closed with {code}, expected 1001")
-        rc = podman("inspect", "--format", "{{.State.ExitCode}}", name).stdout.strip()
-        expect(rc == "0", f"the container exited {rc} after SIGTERM, expected 0")
-        expect(took <= grace + dr.GRACE_MARGIN_S, f"`podman stop` took {took:.1f} s (grace {grace:g} s)")
-        log(f"ok    `podman stop` (SIGTERM) with a stream open: close frame 1001, exit 0 in {took:.2f} s "
+        rc = podman("inspect", "--format", "{{.State.ExitCode}}", d.name).stdout.strip()
+        expect(rc == "0", f"the {d.what} exited {rc} after SIGTERM, expected 0")
+        expect(took <= grace + dr.GRACE_MARGIN_S, f"stopping took {took:.1f} s (grace {grace:g} s)")
+        log(f"ok    stopped (SIGTERM) with a stream open: close frame 1001, exit 0 in {took:.2f} s "
             f"(grace {grace:g} s)")
     finally:
         ws.close()
+
+
+def operator_checks(d: Deployment, host: str) -> None:
+    """What an operator expects of a running homcull container, `host` being the host
+    binary's server to compare answers with."""
+    t = time.monotonic()
+    ready = wait_ready(d.base, f"the {d.what}")
+    expect(ready.get("backend") == "cpu" and ready.get("cpu_fallback") is False,
+           f"without a GPU the container should cull on the native CPU backend: {ready}")
+    log(f"ok    {d.what} ready in {time.monotonic() - t:.1f} s; /readyz: backend {ready['backend']}, "
+        f"adapter {ready['adapter']!r}")
+
+    pid = podman("inspect", "--format", "{{.State.Pid}}", d.name).stdout.strip()
+    uid = re.search(r"^Uid:\s+(\d+)", Path(f"/proc/{pid}/status").read_text(), re.M)
+    expect(uid is not None and uid.group(1) == "10001", f"the server runs as uid {uid and uid.group(1)}")
+    ro = podman("exec", d.name, "sh", "-c", "touch /probe", check=False)
+    expect(ro.returncode != 0, "the root file system is writable")
+    podman("exec", d.name, "sh", "-c", "touch /data/.probe && rm /data/.probe")
+    hc = podman("healthcheck", "run", d.name, check=False)
+    expect(hc.returncode == 0, f"the HEALTHCHECK failed: {hc.stdout}{hc.stderr}")
+    log("ok    runs as uid 10001, root read-only, /data writable, HEALTHCHECK passes")
+
+    inside, outside = answers(d.base, "demo"), answers(host, "demo")
+    expect(inside == outside, f"the {d.what} and the host binary answer the same culls differently")
+    expect(any(v for v, _ in inside), "every pose sees nothing: the comparison would be vacuous")
+    log(f"ok    {len(inside)} culls of the demo: the {d.what} answers exactly as the host binary "
+        f"(visible {[len(v) for v, _ in inside]})")
+
+    st, _, glb = dr.http("GET", f"{d.base}/v1/scenes/demo/glb")
+    expect(st == 200, f"GET /v1/scenes/demo/glb answered {st}")
+    st, _, body = dr.http("POST", f"{d.base}/v1/scenes?name=container-test", glb, "model/gltf-binary",
+                          timeout=120)
+    expect(st == 201, f"upload answered {st}: {body[:300]!r}")
+    sid = json.loads(body)["id"]
+    log(f"ok    uploaded the demo's GLB ({len(glb)} B) as scene {sid}")
+
+    stop_during_stream(d, 10.0)
+    d.start()
+    wait_ready(d.base, f"the restarted {d.what}")
+    st, lst = dr.get_json(f"{d.base}/v1/scenes")
+    expect(st == 200 and any(s["id"] == sid for s in lst["scenes"]),
+           f"scene {sid} did not survive the restart: {lst}")
+    expect(answers(d.base, sid) == answers(d.base, "demo"), "the uploaded copy culls unlike the demo")
+    log(f"ok    after a restart on the same volume scene {sid} is back and culls as the demo does")
+
+
+def compose_file_for_podman_compose(dest: Path) -> Path:
+    """deploy/compose.yaml as Debian's podman-compose (1.0.3) can read it: it predates
+    `env_file`'s long syntax (`path`, `required: false`), so that entry is dropped when
+    its file does not exist (which is what `required: false` means) and shortened when
+    it does; and the image is used as built (no `build`)."""
+    import yaml  # pyyaml: CI installs it for the deployment linters
+
+    compose = yaml.safe_load((REPO / "deploy" / "compose.yaml").read_text())
+    for svc in compose["services"].values():
+        svc.pop("build", None)
+        files = []
+        for e in svc.pop("env_file", []) or []:
+            path = e["path"] if isinstance(e, dict) else e
+            if (REPO / "deploy" / path).is_file():
+                files.append(str(REPO / "deploy" / path))
+            elif not (isinstance(e, dict) and e.get("required") is False):
+                raise Failed(f"compose.yaml's env_file {path} is required but missing")
+        if files:
+            svc["env_file"] = files
+    out = dest / "compose.yaml"
+    out.write_text(yaml.safe_dump(compose, sort_keys=False))
+    return out
 
 
 def run_in_container(bin_path: str) -> None:
@@ -248,66 +352,58 @@ def run_in_container(bin_path: str) -> None:
     log("ok    no build tools in the runtime image (cc, gcc, rustc, cargo, ld, make)")
 
     tag = f"homcull-test-{os.getpid()}"
-    port, host_port = dr.free_port(), dr.free_port()
     tmp = Path(tempfile.mkdtemp(prefix="homcull-container-"))
     procs = dr.Procs(tmp / "logs")
     (tmp / "logs").mkdir()
     (tmp / "host-data").mkdir()
+    running: list[str] = []
+    names: list[str] = []
+    compose: list[str] | None = None
     try:
+        host = host_server(bin_path, dr.free_port(), tmp / "host-data", procs)
+
+        log("== podman run, as compose.yaml runs it")
+        port = dr.free_port()
         podman("volume", "create", tag)
+        running.append(tag)
         podman("run", "-d", "--name", tag, "--read-only", "--tmpfs", "/tmp:mode=1777", "-v", f"{tag}:/data",
                "--cap-drop", "ALL", "--security-opt", "no-new-privileges", "-e", "HOMCULL_SHUTDOWN_GRACE_S=10",
                "-p", f"127.0.0.1:{port}:8080", IMAGE)
-        base = f"http://127.0.0.1:{port}"
-        t = time.monotonic()
-        ready = wait_ready(base, "the container")
-        expect(ready.get("backend") == "cpu" and ready.get("cpu_fallback") is False,
-               f"without a GPU the container should cull on the native CPU backend: {ready}")
-        log(f"ok    container ready in {time.monotonic() - t:.1f} s; /readyz: backend {ready['backend']}, "
-            f"adapter {ready['adapter']!r}")
+        operator_checks(Deployment("container", tag, port, [["podman", "stop", "-t", "30", tag]],
+                                   [["podman", "start", tag]]), host)
+        podman("rm", "-f", "-t", "0", tag)
 
-        pid = podman("inspect", "--format", "{{.State.Pid}}", tag).stdout.strip()
-        uid = re.search(r"^Uid:\s+(\d+)", Path(f"/proc/{pid}/status").read_text(), re.M)
-        expect(uid is not None and uid.group(1) == "10001", f"the server runs as uid {uid and uid.group(1)}")
-        ro = podman("exec", tag, "sh", "-c", "touch /probe", check=False)
-        expect(ro.returncode != 0, "the root file system is writable")
-        podman("exec", tag, "sh", "-c", "touch /data/.probe && rm /data/.probe")
-        hc = podman("healthcheck", "run", tag, check=False)
-        expect(hc.returncode == 0, f"the image's HEALTHCHECK failed: {hc.stdout}{hc.stderr}")
-        log("ok    runs as uid 10001, root read-only, /data writable, HEALTHCHECK passes")
-
-        host = host_server(bin_path, host_port, tmp / "host-data", procs)
-        inside, outside = answers(base, "demo"), answers(host, "demo")
-        expect(inside == outside, "the container and the host binary answer the same culls differently")
-        expect(any(v for v, _ in inside), "every pose sees nothing: the comparison would be vacuous")
-        log(f"ok    {len(inside)} culls of the demo: the container answers exactly as the host binary "
-            f"(visible {[len(v) for v, _ in inside]})")
-
-        st, _, glb = dr.http("GET", f"{base}/v1/scenes/demo/glb")
-        expect(st == 200, f"GET /v1/scenes/demo/glb answered {st}")
-        st, _, body = dr.http("POST", f"{base}/v1/scenes?name=container-test", glb, "model/gltf-binary",
-                              timeout=120)
-        expect(st == 201, f"upload answered {st}: {body[:300]!r}")
-        sid = json.loads(body)["id"]
-        log(f"ok    uploaded the demo's GLB ({len(glb)} B) as scene {sid}")
-
-        stop_during_stream(tag, port, 10.0)
-        podman("start", tag)
-        wait_ready(base, "the restarted container")
-        st, lst = dr.get_json(f"{base}/v1/scenes")
-        expect(st == 200 and any(s["id"] == sid for s in lst["scenes"]),
-               f"scene {sid} did not survive the restart: {lst}")
-        expect(answers(base, sid) == answers(base, "demo"), "the uploaded copy culls unlike the demo")
-        log(f"ok    after a restart on the same volume scene {sid} is back and culls as the demo does")
+        if not shutil.which("podman-compose"):
+            raise Missing("podman-compose not found (Debian: apt-get install podman-compose)")
+        log("== podman-compose up with deploy/compose.yaml")
+        port = dr.free_port()
+        project = f"homcull-compose-{os.getpid()}"
+        file = compose_file_for_podman_compose(tmp)
+        compose = ["podman-compose", "-p", project, "-f", str(file)]
+        os.environ["HOMCULL_PUBLISH"] = f"127.0.0.1:{port}"
+        podman("tag", IMAGE, "localhost/homcull:latest")  # compose.yaml's `image`
+        run_all([[*compose, "up", "-d"]])
+        names = podman("ps", "-a", "--filter", f"label=io.podman.compose.project={project}",
+                       "--format", "{{.Names}}").stdout.split()
+        expect(len(names) == 1, f"compose started {names}, expected one container")
+        operator_checks(Deployment("compose service", names[0], port, [[*compose, "stop"]],
+                                   [[*compose, "start"]]), host)
     except BaseException:
-        logs = podman("logs", tag, check=False)
-        log(f"container log (tail):\n{(logs.stdout + logs.stderr)[-3000:]}")
+        for name in running + names:
+            logs = podman("logs", name, check=False)
+            log(f"{name} log (tail):\n{(logs.stdout + logs.stderr)[-3000:]}")
         procs.dump_logs()
         raise
     finally:
         procs.stop_all()
         podman("rm", "-f", "-t", "0", tag, check=False)
         podman("volume", "rm", "-f", tag, check=False)
+        if compose:
+            subprocess.run([*compose, "down", "-v"], capture_output=True, timeout=90)
+            for kind in ("volume", "network"):  # podman-compose 1.0.3's down leaves them
+                for v in podman(kind, "ls", "--format", "{{.Name}}", check=False).stdout.split():
+                    if v.startswith(compose[2]):
+                        podman(kind, "rm", "-f", v, check=False)
         shutil.rmtree(tmp, ignore_errors=True)
 
 
