@@ -16,7 +16,10 @@ packages are, so:
 
 The same checks then run against `podman-compose up` of deploy/compose.yaml (the
 port published on loopback through HOMCULL_PUBLISH; Debian's podman-compose 1.0.3 is
-handed the file with `env_file`'s long syntax rewritten, which it predates).
+handed the file with `env_file`'s long syntax rewritten, which it predates). Last,
+tests/deploy_runtime.py's scale-out check runs with its three replicas and nginx as
+containers on one shared volume (an nginx image built on the same base), a replica
+killed mid-stream.
 
 Checks: the image holds no build tools; it runs as UID 10001; its root is read-only and
 /data writable; its own HEALTHCHECK passes (`podman healthcheck run`); /readyz names the
@@ -341,6 +344,66 @@ def compose_file_for_podman_compose(dest: Path) -> Path:
     return out
 
 
+NGINX_IMAGE = "localhost/homcull-nginx:ci"
+NGINX_CONTAINERFILE = """\
+FROM localhost/debian:bookworm-slim
+# hadolint ignore=DL3008
+RUN apt-get update && apt-get install -y --no-install-recommends nginx-light \\
+    && rm -rf /var/lib/apt/lists/*
+"""
+
+
+class ContainerLauncher(dr.ProcessLauncher):
+    """`scale_out`'s replicas and nginx as containers on one shared named volume, on
+    the host's network (so that nginx's upstreams stay 127.0.0.1:PORT as in the
+    template). Each is started attached (`podman run --rm`, its client the process the
+    check watches); a replica is killed with `podman kill -s KILL`."""
+
+    what = "containers"
+
+    def __init__(self, prefix: str):
+        super().__init__("")
+        self.prefix = prefix
+        self.volume = f"{prefix}-data"
+        self.names: list[str] = []
+
+    def nginx_binary(self) -> str:
+        if podman("image", "exists", NGINX_IMAGE, check=False).returncode != 0:
+            ctx = Path(tempfile.mkdtemp(prefix="homcull-nginx-ctx-"))
+            try:
+                (ctx / "Containerfile").write_text(NGINX_CONTAINERFILE)
+                podman("build", "--network", "host", "-t", NGINX_IMAGE, str(ctx), timeout=300)
+            finally:
+                shutil.rmtree(ctx, ignore_errors=True)
+        return "nginx"
+
+    def shared_data(self, work: Path) -> str:
+        podman("volume", "create", self.volume)
+        return f"volume {self.volume}"
+
+    def _run(self, name: str) -> list[str]:
+        cname = f"{self.prefix}-{name}"
+        self.names.append(cname)
+        return ["podman", "run", "--rm", "--name", cname, "--network", "host"]
+
+    def replica(self, name: str, port: int, shared: str, args: list[str]) -> list[str]:
+        return [*self._run(name), "--read-only", "--tmpfs", "/tmp:mode=1777", "-v", f"{self.volume}:/data",
+                "--cap-drop", "ALL", "--security-opt", "no-new-privileges",
+                "-e", f"HOMCULL_ADDR=127.0.0.1:{port}", IMAGE, "serve", *args]
+
+    def nginx(self, nginx: str, prefix: Path, conf: Path) -> list[str]:
+        return [*self._run("nginx"), "-v", f"{prefix}:{prefix}", NGINX_IMAGE,
+                nginx, "-p", str(prefix), "-e", str(prefix / "error.log"), "-c", str(conf)]
+
+    def kill(self, name: str, proc: subprocess.Popen) -> None:
+        podman("kill", "-s", "KILL", f"{self.prefix}-{name}")
+
+    def cleanup(self) -> None:
+        for n in self.names:
+            podman("rm", "-f", "-t", "0", n, check=False)
+        podman("volume", "rm", "-f", self.volume, check=False)
+
+
 def run_in_container(bin_path: str) -> None:
     ensure_base_image()
     build_image(bin_path)
@@ -388,6 +451,9 @@ def run_in_container(bin_path: str) -> None:
         expect(len(names) == 1, f"compose started {names}, expected one container")
         operator_checks(Deployment("compose service", names[0], port, [[*compose, "stop"]],
                                    [[*compose, "start"]]), host)
+
+        log("== scale-out: three replicas and nginx as containers on one volume")
+        dr.scale_out(bin_path, ContainerLauncher(f"homcull-scale-{os.getpid()}"))
     except BaseException:
         for name in running + names:
             logs = podman("logs", name, check=False)

@@ -852,19 +852,50 @@ def render_nginx(prefix: Path, listen: int, upstream_ports: list[int]) -> str:
     return out
 
 
-def scale_out(bin_path: str) -> None:
+class ProcessLauncher:
+    """How `scale_out` starts its replicas and nginx: as processes on this machine
+    (tests/container_runtime.py has the same as containers)."""
+
+    what = "processes"
+
+    def __init__(self, bin_path: str):
+        self.bin_path = bin_path
+
+    def nginx_binary(self) -> str:
+        nginx = find_nginx()
+        if nginx is None:
+            raise Missing("nginx is not installed (Debian: apt-get install nginx-light or nginx)")
+        return nginx
+
+    def shared_data(self, work: Path) -> str:
+        shared = work / "data"
+        shared.mkdir()
+        return str(shared)
+
+    def replica(self, name: str, port: int, shared: str, args: list[str]) -> list[str]:
+        return [self.bin_path, "serve", "--addr", f"127.0.0.1:{port}", "--data-dir", shared, *args]
+
+    def nginx(self, nginx: str, prefix: Path, conf: Path) -> list[str]:
+        return [nginx, "-p", str(prefix), "-e", str(prefix / "error.log"), "-c", str(conf)]
+
+    def kill(self, name: str, proc: subprocess.Popen) -> None:
+        os.kill(proc.pid, signal.SIGKILL)
+
+    def cleanup(self) -> None:
+        pass
+
+
+def scale_out(bin_path: str, launcher: ProcessLauncher | None = None) -> None:
     dl = Deadline(TIME_LIMIT_S, "scale_out")
-    nginx = find_nginx()
-    if nginx is None:
-        raise Missing("nginx is not installed (Debian: apt-get install nginx-light or nginx)")
+    launcher = launcher or ProcessLauncher(bin_path)
+    nginx = launcher.nginx_binary()
     work = Path(tempfile.mkdtemp(prefix="homcull-scale-"))
     os.chmod(work, 0o755)  # nginx workers drop to `nobody` when the master runs as root
     procs = Procs(work)
     ws = None
     t0 = time.monotonic()
     try:
-        shared = work / "data"
-        shared.mkdir()
+        shared = launcher.shared_data(work)
         ngx = work / "nginx"
         ngx.mkdir()
 
@@ -883,14 +914,15 @@ def scale_out(bin_path: str) -> None:
         env = base_server_env()
         reps = []
         for i, p in enumerate(ports):
-            args = [bin_path, "serve", "--addr", f"127.0.0.1:{p}", "--data-dir", str(shared),
-                    "--rescan-s", "1", "--ws-max-fps", "1000"]
+            args = ["--rescan-s", "1", "--ws-max-fps", "1000"]
             if glb is not None or i > 0:
                 args.append("--no-demo")  # the demo is only needed as a GLB source
-            reps.append((f"replica{i + 1}", p, procs.start(f"replica{i + 1}", args, env)))
+            name = f"replica{i + 1}"
+            reps.append((name, p, procs.start(name, launcher.replica(name, p, shared, args), env)))
         for name, p, proc in reps:
             wait_ready(f"http://127.0.0.1:{p}", proc, min(45.0, dl.left()), name)
-        log(f"ok    3 replicas ready in {time.monotonic() - t0:.1f} s (data dir {shared}, rescan 1 s)")
+        log(f"ok    3 replicas ready as {launcher.what} in {time.monotonic() - t0:.1f} s "
+            f"(data {shared}, rescan 1 s)")
 
         if glb is None:
             st, _, glb = http("GET", f"http://127.0.0.1:{ports[0]}/v1/scenes/demo/glb")
@@ -899,8 +931,7 @@ def scale_out(bin_path: str) -> None:
         else:
             src = str(SHARED_GLB)
 
-        nproc = procs.start("nginx", [nginx, "-p", str(ngx), "-e", str(ngx / "error.log"), "-c", str(conf)],
-                            dict(os.environ))
+        nproc = procs.start("nginx", launcher.nginx(nginx, ngx, conf), dict(os.environ))
         front = f"http://127.0.0.1:{listen}"
         wait_for(lambda: nproc.poll() is None and http("GET", f"{front}/healthz", timeout=3)[0] == 200,
                  15, "nginx to proxy /healthz")
@@ -981,7 +1012,7 @@ def scale_out(bin_path: str) -> None:
         # Keep streaming; SIGKILL the serving replica with a pose in flight.
         seq += 1
         send_pose(ws, seq, walk[5])
-        os.kill(victim.pid, signal.SIGKILL)
+        launcher.kill(victim_name, victim)
         t_kill = time.monotonic()
         victim.wait(timeout=10)
         ws.sock.settimeout(10)
@@ -1051,6 +1082,7 @@ def scale_out(bin_path: str) -> None:
         if ws is not None:
             ws.close()
         procs.stop_all()
+        launcher.cleanup()
         shutil.rmtree(work, ignore_errors=True)
 
 
