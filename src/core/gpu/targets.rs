@@ -6,8 +6,10 @@
 //! would need a pass per layer. Slots sit in rows of [`SlotTargets::cols`]; slot `s`
 //! starts at `((s % cols) · width, (s / cols) · height)` ([`SlotTargets::origin`]), the
 //! arithmetic the kernels repeat (`slot_origin` in `common.wgsl`). A pose draws at an
-//! integer offset with the same vertex stage, so its coverage is the same whichever slot
-//! it lands in, and the oracle's ID raster uses the same slots.
+//! integer offset with the same vertex stage; the oracle's ID raster puts pose k of a
+//! batch in the same slot as the occluder raster and the refinement do, so the three
+//! see identical coverage (which slot a pose lands in can move an edge pixel only where
+//! the rasterizer rounds the offset viewport differently, like any other rasterizer).
 //!
 //! Memory is bounded: a group holds at most [`MAX_SLOTS`] poses, fewer where the
 //! viewport is large ([`slot_budget`] per adapter) or the atlas would pass the
