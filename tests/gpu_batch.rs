@@ -61,24 +61,31 @@ fn a_batch_records_the_same_passes_whatever_its_size_and_a_repeat_creates_nothin
                  (first: {first:?})"
             );
             assert_eq!(again.submissions, 1, "{name}, {n} poses: one submission");
-            shapes.push((name, n, again.render_passes, again.compute_passes));
+            shapes.push((
+                name,
+                n,
+                again.render_passes,
+                again.compute_passes,
+                again.dispatches,
+            ));
         }
     }
-    eprintln!("(method, poses, render passes, compute passes): {shapes:?}");
+    eprintln!("(method, poses, render passes, compute passes, dispatches): {shapes:?}");
     // The same passes at every size: refined HOM 2 render passes (occluders,
-    // refinement), the exact oracle 1 (IDs).
-    for &(name, n, render, compute) in &shapes {
-        let (render0, compute0) = match name {
+    // refinement) and one compute pass (pyramid, box test, filter), the exact oracle
+    // 1 render pass (IDs) and one compute pass (collect); dispatches the same too.
+    for &(name, n, render, compute, dispatches) in &shapes {
+        let (render0, dispatches0) = match name {
             "exact" => (1, 1),
-            _ => (2, shapes[0].3),
+            _ => (2, shapes[0].4),
         };
         assert_eq!(
-            (render, compute),
-            (render0, compute0),
+            (render, compute, dispatches),
+            (render0, 1, dispatches0),
             "{name}, {n} poses: {shapes:?}"
         );
     }
-    assert!(shapes[0].3 >= 3, "pyramid, box test and filter dispatches");
+    assert!(shapes[0].4 >= 3, "pyramid, box test and filter dispatches");
     // A smaller batch after a larger one needs nothing new either.
     let (smaller, _) = counted(&mut backend, &prep, &all[..5], &hom);
     assert_eq!((smaller.buffers, smaller.bind_groups), (0, 0));

@@ -1,7 +1,8 @@
 //! Buffers and bind groups that outlive a batch: nothing is rebuilt per batch.
 //!
-//! A batch writes its inputs into [`GrowBuffer`]s with `queue.write_buffer` (one
-//! staging copy at submission) and binds them with bind groups kept in [`BindCache`]s.
+//! A batch writes its inputs into [`GrowBuffer`]s through one [`Upload`] (one
+//! `queue.write_buffer`, so one staging buffer, then a copy per destination on the GPU)
+//! and binds them with bind groups kept in [`BindCache`]s.
 //! A buffer is reallocated only when a batch needs more than it holds, at the next
 //! power of two, so a server settles after its first few batches and then creates no
 //! buffers and no bind groups at all. Every allocation gets a fresh [`ResourceId`]; a
@@ -13,6 +14,7 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use super::counted::Encoder;
 use super::device::GpuDevice;
 
 /// Identifies one allocation (a buffer or a set of targets) for as long as it lives.
@@ -60,12 +62,10 @@ impl GrowBuffer {
         self.buffer = Some((buffer, next_resource_id()));
     }
 
-    /// Writes `bytes` at the start (growing first); the copy runs at the next submission.
-    pub(crate) fn write(&mut self, gpu: &GpuDevice, bytes: &[u8]) {
+    /// Writes `bytes` at the start (growing first), through the batch's `upload`.
+    pub(crate) fn write(&mut self, gpu: &GpuDevice, upload: &mut Upload, bytes: &[u8]) {
         self.reserve(gpu, bytes.len() as u64);
-        if !bytes.is_empty() {
-            gpu.queue.write_buffer(self.get(), 0, bytes);
-        }
+        upload.stage(self.get(), bytes);
     }
 
     /// The buffer; [`GrowBuffer::reserve`] or [`GrowBuffer::write`] must have run.
@@ -111,5 +111,54 @@ impl BindCache {
         self.group
             .as_ref()
             .expect("a BindCache is filled before use")
+    }
+}
+
+/// Everything a batch writes into its buffers, sent as one block: one
+/// `queue.write_buffer` into a buffer kept between batches (wgpu makes one staging
+/// buffer per call, so one per batch rather than one per destination), then a
+/// buffer-to-buffer copy into each destination, recorded ahead of the batch's passes.
+pub(crate) struct Upload {
+    bytes: Vec<u8>,
+    /// `(offset in bytes, destination, size)` of each staged write.
+    copies: Vec<(u64, wgpu::Buffer, u64)>,
+    block: GrowBuffer,
+}
+
+impl Upload {
+    pub(crate) fn new() -> Self {
+        Upload {
+            bytes: Vec::new(),
+            copies: Vec::new(),
+            block: GrowBuffer::new("upload", wgpu::BufferUsages::COPY_SRC),
+        }
+    }
+
+    /// Stages `data` for the start of `dst` (padded to the 4-byte copy alignment; the
+    /// destination is a [`GrowBuffer`], at least that large).
+    pub(crate) fn stage(&mut self, dst: &wgpu::Buffer, data: &[u8]) {
+        if data.is_empty() {
+            return;
+        }
+        let at = self.bytes.len() as u64;
+        self.bytes.extend_from_slice(data);
+        let size = (data.len() as u64).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT);
+        self.bytes.resize((at + size) as usize, 0);
+        self.copies.push((at, dst.clone(), size));
+    }
+
+    /// Sends what was staged and records its copies at the start of `encoder`.
+    pub(crate) fn flush(&mut self, gpu: &GpuDevice, encoder: &mut Encoder<'_>) {
+        if self.copies.is_empty() {
+            return;
+        }
+        self.block.reserve(gpu, self.bytes.len() as u64);
+        gpu.queue.write_buffer(self.block.get(), 0, &self.bytes);
+        for (at, dst, size) in self.copies.drain(..) {
+            encoder
+                .raw
+                .copy_buffer_to_buffer(self.block.get(), at, &dst, 0, size);
+        }
+        self.bytes.clear();
     }
 }

@@ -19,7 +19,7 @@ use homcull_proto::Method;
 
 use super::arena::next_resource_id;
 use super::context::GpuContext;
-use super::counted::Encoder;
+use super::counted::{ComputePass, Encoder};
 use super::device::GpuError;
 use super::inputs::BatchInputs;
 use super::passes::SharedPasses;
@@ -189,8 +189,9 @@ impl GpuBackend {
         let ctx = &*ctx;
         self.inputs
             .write(ctx, &self.passes, t, &self.scene, &self.draws, plans, s);
-        let inputs = &self.inputs;
         let mut encoder = ctx.encoder();
+        self.inputs.upload.flush(ctx, &mut encoder);
+        let inputs = &self.inputs;
         encoder
             .raw
             .clear_buffer(inputs.mask.get(), 0, Some(inputs.mask_bytes()));
@@ -241,14 +242,12 @@ impl GpuBackend {
                 |p| inputs.draw_list(p),
             );
             mark(stamps, encoder, Some(Pass::IdRaster));
-            self.passes.oracle.record(
-                encoder,
-                inputs.oracle.bind_group(),
-                g as u32,
-                t.width,
-                t.height,
-                b - a,
-            );
+            {
+                let mut cp = encoder.compute_pass("oracle collect");
+                let bind_group = inputs.oracle.bind_group();
+                let oracle = &self.passes.oracle;
+                oracle.record(&mut cp, bind_group, g as u32, t.width, t.height, b - a);
+            }
             mark(stamps, encoder, Some(Pass::Collect));
         }
     }
@@ -275,27 +274,41 @@ impl GpuBackend {
                 |p| inputs.draw_list(p),
             );
             mark(stamps, encoder, Some(Pass::OccluderRaster));
-            self.passes
-                .pyramid
-                .record(encoder, &t.pyramid_bg, &t.layout, b - a);
-            mark(stamps, encoder, Some(Pass::Pyramid));
-            self.passes.test.record(
-                encoder,
-                inputs.test.bind_group(),
-                g as u32,
-                inputs.test.counts[g],
-            );
-            mark(stamps, encoder, Some(Pass::BoxTest));
+            // One compute pass for the pyramid, the box test and the refinement's
+            // filter (wgpu orders the dispatches); split where profiling stamps go.
+            let passes = &self.passes;
+            let test = |cp: &mut ComputePass<'_>| {
+                let bind_group = inputs.test.bind_group();
+                passes
+                    .test
+                    .record(cp, bind_group, g as u32, inputs.test.counts[g]);
+            };
+            let filter = |cp: &mut ComputePass<'_>| {
+                inputs.refine.record_filter(&passes.refine, cp, g);
+            };
+            {
+                let mut cp = encoder.compute_pass("pyramid, box test, refinement filter");
+                passes
+                    .pyramid
+                    .record(&mut cp, &t.pyramid_bg, &t.layout, b - a);
+                if stamps.is_none() {
+                    test(&mut cp);
+                    if refines {
+                        filter(&mut cp);
+                    }
+                }
+            }
+            if stamps.is_some() {
+                mark(stamps, encoder, Some(Pass::Pyramid));
+                test(&mut encoder.compute_pass("box test"));
+                mark(stamps, encoder, Some(Pass::BoxTest));
+                if refines {
+                    filter(&mut encoder.compute_pass("refinement filter"));
+                }
+            }
             if refines {
-                inputs.refine.record(
-                    &self.passes.refine,
-                    encoder,
-                    t,
-                    pose_bg,
-                    &self.scene,
-                    g,
-                    a..b,
-                );
+                let refine = &inputs.refine;
+                refine.record_raster(&passes.refine, encoder, t, pose_bg, &self.scene, a..b);
                 mark(stamps, encoder, Some(Pass::Refine));
             }
         }

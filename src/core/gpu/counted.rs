@@ -20,6 +20,7 @@ pub struct Counters {
     bind_groups: AtomicU64,
     render_passes: AtomicU64,
     compute_passes: AtomicU64,
+    dispatches: AtomicU64,
     submissions: AtomicU64,
 }
 
@@ -30,6 +31,7 @@ pub struct RecordCounts {
     pub bind_groups: u64,
     pub render_passes: u64,
     pub compute_passes: u64,
+    pub dispatches: u64,
     pub submissions: u64,
 }
 
@@ -41,6 +43,7 @@ impl std::ops::Sub for RecordCounts {
             bind_groups: self.bind_groups - o.bind_groups,
             render_passes: self.render_passes - o.render_passes,
             compute_passes: self.compute_passes - o.compute_passes,
+            dispatches: self.dispatches - o.dispatches,
             submissions: self.submissions - o.submissions,
         }
     }
@@ -67,6 +70,7 @@ impl Counters {
             bind_groups: get(&self.bind_groups),
             render_passes: get(&self.render_passes),
             compute_passes: get(&self.compute_passes),
+            dispatches: get(&self.dispatches),
             submissions: get(&self.submissions),
         }
     }
@@ -97,11 +101,40 @@ impl<'a> Encoder<'a> {
         self.raw.begin_render_pass(desc)
     }
 
-    pub(crate) fn compute_pass(&mut self, label: &str) -> wgpu::ComputePass<'_> {
+    pub(crate) fn compute_pass(&mut self, label: &str) -> ComputePass<'_> {
         self.counters.compute_passes.fetch_add(1, Ordering::Relaxed);
-        self.raw.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(label),
-            timestamp_writes: None,
-        })
+        let counters = self.counters;
+        ComputePass {
+            raw: self.raw.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(label),
+                timestamp_writes: None,
+            }),
+            counters,
+        }
+    }
+}
+
+/// A compute pass whose dispatches are counted. Several kernels share one pass (wgpu
+/// orders their dispatches by what they read and write).
+pub(crate) struct ComputePass<'e> {
+    raw: wgpu::ComputePass<'e>,
+    counters: &'e Counters,
+}
+
+impl ComputePass<'_> {
+    /// Dispatches `pipeline` over `groups` workgroups with `bind_group` at group 0 and
+    /// the given dynamic offsets.
+    pub(crate) fn dispatch(
+        &mut self,
+        pipeline: &wgpu::ComputePipeline,
+        bind_group: &wgpu::BindGroup,
+        offsets: &[u32],
+        groups: [u32; 3],
+    ) {
+        self.counters.dispatches.fetch_add(1, Ordering::Relaxed);
+        self.raw.set_pipeline(pipeline);
+        self.raw.set_bind_group(0, bind_group, offsets);
+        self.raw
+            .dispatch_workgroups(groups[0], groups[1], groups[2]);
     }
 }

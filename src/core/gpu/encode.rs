@@ -1,7 +1,7 @@
 //! Binding-layout entries, uniform slots and the two dispatch shapes every compute pass
 //! here records.
 
-use super::counted::Encoder;
+use super::counted::ComputePass;
 use super::prelude::{GRID_WORKGROUP, LINEAR_WORKGROUP};
 
 pub(crate) fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -51,14 +51,13 @@ pub(crate) fn texture_entry(
     }
 }
 
-/// Records a 1-D compute pass of `invocations` threads in workgroups of
-/// [`LINEAR_WORKGROUP`], with
-/// `bind_group` bound at uniform slot `slot`; nothing when `invocations` is 0. Wide
-/// dispatches wrap into rows of at most 65535 workgroups (the per-dimension limit), so
-/// kernels index `g.x + g.y · num_workgroups.x · LINEAR_WORKGROUP`.
+/// Dispatches a 1-D kernel of `invocations` threads in workgroups of
+/// [`LINEAR_WORKGROUP`] into `pass`, with `bind_group` bound at uniform slot `slot`;
+/// nothing when `invocations` is 0. Wide dispatches wrap into rows of at most 65535
+/// workgroups (the per-dimension limit), so kernels index
+/// `g.x + g.y · num_workgroups.x · LINEAR_WORKGROUP`.
 pub(crate) fn record_wide(
-    encoder: &mut Encoder<'_>,
-    label: &str,
+    pass: &mut ComputePass<'_>,
     pipeline: &wgpu::ComputePipeline,
     bind_group: &wgpu::BindGroup,
     slot: u32,
@@ -69,20 +68,17 @@ pub(crate) fn record_wide(
         return;
     }
     let groups = invocations.div_ceil(LINEAR_WORKGROUP);
-    let mut pass = encoder.compute_pass(label);
-    pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, bind_group, &[(slot as u64 * UNIFORM_SLOT) as u32]);
     let x = groups.min(MAX_DIM);
-    pass.dispatch_workgroups(x, groups.div_ceil(x), 1);
+    let offset = (slot as u64 * UNIFORM_SLOT) as u32;
+    pass.dispatch(pipeline, bind_group, &[offset], [x, groups.div_ceil(x), 1]);
 }
 
-/// Records a compute pass of 8×8 workgroups over a `width` × `height` grid for each of
-/// `slots` pose slots (z = slot), with `bind_group` bound at uniform slot `slot`: the
-/// shape of the per-pixel passes (pyramid, oracle collect).
+/// Dispatches 8×8 workgroups over a `width` × `height` grid for each of `slots` pose
+/// slots (z = slot) into `pass`, with `bind_group` bound at uniform slot `slot`: the
+/// shape of the per-pixel kernels (pyramid, oracle collect).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn record_grid(
-    encoder: &mut Encoder<'_>,
-    label: &str,
+    pass: &mut ComputePass<'_>,
     pipeline: &wgpu::ComputePipeline,
     bind_group: &wgpu::BindGroup,
     slot: u32,
@@ -90,11 +86,10 @@ pub(crate) fn record_grid(
     height: u32,
     slots: u32,
 ) {
-    let mut pass = encoder.compute_pass(label);
-    pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, bind_group, &[(slot as u64 * UNIFORM_SLOT) as u32]);
     let side = GRID_WORKGROUP;
-    pass.dispatch_workgroups(width.div_ceil(side), height.div_ceil(side), slots);
+    let offset = (slot as u64 * UNIFORM_SLOT) as u32;
+    let groups = [width.div_ceil(side), height.div_ceil(side), slots];
+    pass.dispatch(pipeline, bind_group, &[offset], groups);
 }
 
 /// Uniform slots are 256 bytes apart (the dynamic-offset alignment every adapter accepts).

@@ -7,7 +7,7 @@
 
 use homcull_proto::Method;
 
-use super::arena::{BindCache, GrowBuffer};
+use super::arena::{BindCache, GrowBuffer, Upload};
 use super::device::GpuDevice;
 use super::encode::{UNIFORM_SLOT, slotted};
 use super::oracle::OracleInputs;
@@ -43,6 +43,8 @@ pub(crate) struct BatchInputs {
     pub(crate) oracle: OracleInputs,
     /// Staging buffer for the bitmask's readback.
     pub(crate) readback: GrowBuffer,
+    /// What the batch writes, sent as one block ([`Upload::flush`] before recording).
+    pub(crate) upload: Upload,
 }
 
 impl BatchInputs {
@@ -68,6 +70,7 @@ impl BatchInputs {
             refine: RefineInputs::new(),
             oracle: OracleInputs::new(),
             readback: super::readback::readback_buffer(),
+            upload: Upload::new(),
         }
     }
 
@@ -96,7 +99,7 @@ impl BatchInputs {
             .iter()
             .map(|p| PoseUniform::new(&p.cam, p.deb.depth[0]))
             .collect();
-        self.poses.write(gpu, &slotted(&uniforms));
+        self.poses.write(gpu, &mut self.upload, &slotted(&uniforms));
         self.mask.reserve(gpu, self.mask_bytes());
         let poses = &self.poses;
         self.pose_bind.get(&[poses.id()], || {
@@ -121,15 +124,16 @@ impl BatchInputs {
         self.indirect = gpu.indirect_draws;
         if self.indirect {
             let (args, ranges) = indirect_args(drawn);
-            self.draws.write(gpu, &args);
+            self.draws.write(gpu, &mut self.upload, &args);
             self.ranges = ranges;
         } else {
             self.direct = drawn.collect();
         }
         if exact {
             let (groups, words) = (&self.groups, self.words);
+            let upload = &mut self.upload;
             self.oracle
-                .prepare(gpu, &passes.oracle, t, groups, words, &self.mask);
+                .prepare(gpu, upload, &passes.oracle, t, groups, words, &self.mask);
             return;
         }
         let deb = &plans[0].deb;
@@ -144,12 +148,14 @@ impl BatchInputs {
             self.words,
             t.cols,
         );
-        self.test.write(gpu, &cfg, plans, &self.groups);
+        self.test
+            .write(gpu, &mut self.upload, &cfg, plans, &self.groups);
         self.test
             .bind(gpu, &passes.test, t, &self.poses, &scene.boxes, &self.mask);
         if s.refines() {
             self.refine.write(
                 gpu,
+                &mut self.upload,
                 &passes.refine,
                 t,
                 scene,

@@ -2,8 +2,8 @@
 //! visibility bit of every object that owns at least one pixel.
 //! CPU twin: `hom/oracle.rs` (`hom::raster::raster_ids` plus a scan of the ID buffer).
 
-use super::arena::{BindCache, GrowBuffer};
-use super::counted::Encoder;
+use super::arena::{BindCache, GrowBuffer, Upload};
+use super::counted::ComputePass;
 use super::device::GpuDevice;
 use super::encode::{
     record_grid, slotted, storage_entry, texture_entry, uniform_entry, uniform_slot,
@@ -48,7 +48,7 @@ impl OraclePass {
     /// Records the collect dispatch of one group (`group` = its params slot).
     pub(crate) fn record(
         &self,
-        encoder: &mut Encoder<'_>,
+        pass: &mut ComputePass<'_>,
         bind_group: &wgpu::BindGroup,
         group: u32,
         width: u32,
@@ -56,8 +56,7 @@ impl OraclePass {
         slots: u32,
     ) {
         record_grid(
-            encoder,
-            "oracle collect",
+            pass,
             &self.pipeline,
             bind_group,
             group,
@@ -84,9 +83,11 @@ impl OracleInputs {
 
     /// Writes the params of `groups` and makes (or keeps) the bind group on `t`'s ID
     /// atlas (made here on first use) and the visibility `mask`.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn prepare(
         &mut self,
         gpu: &GpuDevice,
+        upload: &mut Upload,
         pass: &OraclePass,
         t: &SlotTargets,
         groups: &[(u32, u32)],
@@ -104,7 +105,7 @@ impl OracleInputs {
                 _pad: [0; 3],
             })
             .collect();
-        self.params.write(gpu, &slotted(&params));
+        self.params.write(gpu, upload, &slotted(&params));
         let ids = t.ids(&gpu.device);
         let key = [t.generation, self.params.id(), mask.id()];
         let OracleInputs { params, bind } = self;

@@ -5,7 +5,7 @@
 //! pixels' worth of memory less per slot than the CPU layout, which keeps level 0).
 //! CPU twin: `hom/pyramid.rs`; layout shared through [`LevelLayout`].
 
-use super::counted::Encoder;
+use super::counted::ComputePass;
 use super::device::GpuDevice;
 use super::encode::{record_grid, slotted, storage_entry, texture_entry, uniform_entry};
 use crate::core::hom::{MAX_LEVELS, pyramid::LevelLayout};
@@ -129,7 +129,7 @@ impl PyramidPass {
     /// [`PyramidPass::bind_group`] for the same `layout`.
     pub(crate) fn record(
         &self,
-        encoder: &mut Encoder<'_>,
+        pass: &mut ComputePass<'_>,
         bind_group: &wgpu::BindGroup,
         layout: &LevelLayout,
         slots: u32,
@@ -138,16 +138,7 @@ impl PyramidPass {
             // One invocation per 2×2 texels of the first level written.
             let (w, h) = layout.dims[step.src_level as usize + 1];
             let (w, h) = (w.div_ceil(2), h.div_ceil(2));
-            record_grid(
-                encoder,
-                "pyramid levels",
-                &self.downsample,
-                bind_group,
-                k as u32,
-                w,
-                h,
-                slots,
-            );
+            record_grid(pass, &self.downsample, bind_group, k as u32, w, h, slots);
         }
     }
 }

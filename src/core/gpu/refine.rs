@@ -22,8 +22,8 @@
 //!    rasterizer's own depths; all three are conservative and differ only on depth
 //!    near-ties).
 
-use super::arena::{BindCache, GrowBuffer};
-use super::counted::Encoder;
+use super::arena::{BindCache, GrowBuffer, Upload};
+use super::counted::{ComputePass, Encoder};
 use super::device::GpuDevice;
 use super::encode::{
     UNIFORM_SLOT, record_wide, slotted, storage_entry, uniform_entry, uniform_slot,
@@ -200,6 +200,7 @@ impl RefineInputs {
     pub(crate) fn write(
         &mut self,
         gpu: &GpuDevice,
+        upload: &mut Upload,
         pass: &RefinePass,
         t: &SlotTargets,
         scene: &SceneBuffers,
@@ -239,10 +240,12 @@ impl RefineInputs {
                 })
                 .collect();
             self.group_draws.extend(params.iter().map(|p| p.draw_count));
-            self.filter_params.write(gpu, &slotted(&params));
-            self.draw_objects.write(gpu, bytemuck::cast_slice(&pairs));
+            self.filter_params.write(gpu, upload, &slotted(&params));
+            self.draw_objects
+                .write(gpu, upload, bytemuck::cast_slice(&pairs));
             let firsts: Vec<u32> = self.ranges.iter().map(|r| r.0).collect();
-            self.pose_first.write(gpu, bytemuck::cast_slice(&firsts));
+            self.pose_first
+                .write(gpu, upload, bytemuck::cast_slice(&firsts));
             self.draws
                 .reserve(gpu, pairs.len() as u64 * DRAW_ARGS_BYTES);
             self.counts.reserve(gpu, self.poses as u64 * 4);
@@ -261,7 +264,7 @@ impl RefineInputs {
                 _pad: [0; 2],
             })
             .collect();
-        self.pose_params.write(gpu, &slotted(&pose_params));
+        self.pose_params.write(gpu, upload, &slotted(&pose_params));
         self.bind(gpu, pass, t, scene, box_mask);
     }
 
@@ -344,31 +347,27 @@ impl RefineInputs {
         self.indirect && self.compact
     }
 
-    /// Records the refinement of poses `range` (group `g`), after its box test: the
-    /// filter dispatch, then one render pass over the atlas, each pose in its slot.
+    /// Records group `g`'s filter dispatch (after its box test, in the same compute
+    /// pass): the draws of the box test's survivors.
+    pub(crate) fn record_filter(&self, pass: &RefinePass, cp: &mut ComputePass<'_>, g: usize) {
+        if self.indirect {
+            let filter_bg = self.filter_bind.current();
+            record_wide(cp, &pass.filter, filter_bg, g as u32, self.group_draws[g]);
+        }
+    }
+
+    /// Records the refinement raster of poses `range` (group `g`, after its filter):
+    /// one render pass over the atlas, each pose in its slot.
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn record(
+    pub(crate) fn record_raster(
         &self,
         pass: &RefinePass,
         encoder: &mut Encoder<'_>,
         t: &SlotTargets,
         pose_bg: &wgpu::BindGroup,
         scene: &SceneBuffers,
-        g: usize,
         range: std::ops::Range<u32>,
     ) {
-        if self.indirect {
-            let filter_bg = self.filter_bind.current();
-            let count = self.group_draws[g];
-            record_wide(
-                encoder,
-                "refine filter",
-                &pass.filter,
-                filter_bg,
-                g as u32,
-                count,
-            );
-        }
         let raster_bg = self.raster_bind.current();
         // The occluder depth is read, not written, and not needed afterwards.
         let mut rp = t.begin_pass(encoder, "refine raster", None, DepthUse::LoadDiscard);

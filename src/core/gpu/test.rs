@@ -3,8 +3,8 @@
 
 use homcull_proto::{DebVariant, Method};
 
-use super::arena::{BindCache, GrowBuffer};
-use super::counted::Encoder;
+use super::arena::{BindCache, GrowBuffer, Upload};
+use super::counted::ComputePass;
 use super::device::GpuDevice;
 use super::encode::{
     record_wide, slotted, storage_entry, texture_entry, uniform_entry, uniform_slot,
@@ -108,19 +108,12 @@ impl TestPass {
     /// Records the test of `count` candidates of group `group` (its params slot).
     pub(crate) fn record(
         &self,
-        encoder: &mut Encoder<'_>,
+        pass: &mut ComputePass<'_>,
         bind_group: &wgpu::BindGroup,
         group: u32,
         count: u32,
     ) {
-        record_wide(
-            encoder,
-            "object test",
-            &self.pipeline,
-            bind_group,
-            group,
-            count,
-        );
+        record_wide(pass, &self.pipeline, bind_group, group, count);
     }
 }
 
@@ -154,6 +147,7 @@ impl TestInputs {
     pub(crate) fn write(
         &mut self,
         gpu: &GpuDevice,
+        upload: &mut Upload,
         cfg: &TestConfig,
         plans: &[PosePlan],
         groups: &[(u32, u32)],
@@ -179,11 +173,12 @@ impl TestInputs {
             .iter()
             .flat_map(|p| p.deb.depth.iter().copied())
             .collect();
-        self.config.write(gpu, bytemuck::bytes_of(cfg));
-        self.groups.write(gpu, &slotted(&params));
+        self.config.write(gpu, upload, bytemuck::bytes_of(cfg));
+        self.groups.write(gpu, upload, &slotted(&params));
         self.candidates
-            .write(gpu, bytemuck::cast_slice(&candidates));
-        self.deb_tiles.write(gpu, bytemuck::cast_slice(&deb_tiles));
+            .write(gpu, upload, bytemuck::cast_slice(&candidates));
+        self.deb_tiles
+            .write(gpu, upload, bytemuck::cast_slice(&deb_tiles));
     }
 
     /// Makes (or keeps) the test's bind group on `t`, with the batch's `poses`, the
