@@ -14,8 +14,8 @@
 //! Memory is bounded: a group holds at most [`MAX_SLOTS`] poses, fewer where the
 //! viewport is large ([`slot_budget`] per adapter) or the atlas would pass the
 //! adapter's largest texture; larger batches run as several groups. Below that bound
-//! the atlas grows with the batches it serves (to the next power of two of the largest
-//! batch seen), so a server answering single poses holds a slot or two.
+//! the atlas starts at [`FIRST_SLOTS`] and grows with larger batches (to the next power
+//! of two of the largest batch seen).
 
 use super::counted::Encoder;
 use super::device::GpuDevice;
@@ -27,6 +27,10 @@ use crate::core::hom::pyramid::LevelLayout;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub const OCCLUSION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 pub const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
+
+/// Slots the atlas starts with: a server's first culls allocate the memory its
+/// everyday batches need, so that a few concurrent clients do not grow it later.
+pub const FIRST_SLOTS: u32 = 16;
 
 /// Most poses in one group (one atlas).
 pub const MAX_SLOTS: u32 = 256;
@@ -114,8 +118,8 @@ impl Atlas {
 }
 
 impl SlotTargets {
-    /// An atlas for at least `poses` poses (a power of two), or as many as
-    /// [`slots_for`] allows.
+    /// An atlas for at least `poses` poses (a power of two, at least [`FIRST_SLOTS`]),
+    /// or as many as [`slots_for`] allows.
     pub(crate) fn new(
         gpu: &GpuDevice,
         pyramid: &PyramidPass,
@@ -125,7 +129,8 @@ impl SlotTargets {
     ) -> Self {
         let layout = LevelLayout::new(width, height);
         let (_, pyramid_stride) = buffer_levels(&layout);
-        let slots = slots_for(gpu, width, height).min(poses.max(1).next_power_of_two());
+        let wanted = poses.max(FIRST_SLOTS).next_power_of_two();
+        let slots = slots_for(gpu, width, height).min(wanted);
         let cols = (gpu.device.limits().max_texture_dimension_2d / width).max(1);
         let cols = cols.min(slots);
         let (aw, ah) = (cols * width, slots.div_ceil(cols) * height);
