@@ -17,7 +17,6 @@ use std::sync::Arc;
 
 use homcull_proto::Method;
 
-use super::arena::next_resource_id;
 use super::context::GpuContext;
 use super::counted::{ComputePass, Encoder};
 use super::device::GpuError;
@@ -63,14 +62,7 @@ fn lock_targets<'p>(
     };
     if !t.as_ref().is_some_and(fits) {
         *t = None; // free the old targets before allocating new ones
-        let generation = next_resource_id();
-        *t = Some(SlotTargets::new(
-            ctx,
-            &passes.pyramid,
-            size,
-            poses,
-            generation,
-        ));
+        *t = Some(SlotTargets::new(ctx, &passes.pyramid, size, poses));
     }
     t
 }
@@ -330,7 +322,7 @@ impl GpuBackend {
         } else {
             inputs.mask.get()
         };
-        let size = (poses * words) as u64 * 4;
+        let size = inputs.mask_bytes();
         let bytes = read_into(&self.ctx, encoder, result, size, &mut inputs.readback)?;
         let all: &[u32] = bytemuck::cast_slice(&bytes);
         let masks = all

@@ -160,6 +160,9 @@ pub(crate) struct RefineInputs {
     /// Bytes of the refined bitmask this batch.
     mask_bytes: u64,
     poses: u32,
+    /// Poses `pose_params` holds (its contents depend only on the pose index and the
+    /// scene's words per pose, so a batch writes them only when it has more poses).
+    params_poses: u32,
 }
 
 impl RefineInputs {
@@ -190,6 +193,7 @@ impl RefineInputs {
             compact: false,
             mask_bytes: 0,
             poses: 0,
+            params_poses: 0,
         }
     }
 
@@ -257,14 +261,17 @@ impl RefineInputs {
         }
         self.mask_bytes = (plans.len() as u32 * words) as u64 * 4;
         self.refined.reserve(gpu, self.mask_bytes);
-        let pose_params: Vec<RefineParams> = (0..plans.len() as u32)
-            .map(|pose| RefineParams {
-                pose,
-                words_per_pose: words,
-                _pad: [0; 2],
-            })
-            .collect();
-        self.pose_params.write(gpu, upload, &slotted(&pose_params));
+        if self.poses > self.params_poses {
+            let pose_params: Vec<RefineParams> = (0..self.poses)
+                .map(|pose| RefineParams {
+                    pose,
+                    words_per_pose: words,
+                    _pad: [0; 2],
+                })
+                .collect();
+            self.pose_params.write(gpu, upload, &slotted(&pose_params));
+            self.params_poses = self.poses;
+        }
         self.bind(gpu, pass, t, scene, box_mask);
     }
 

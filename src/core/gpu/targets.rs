@@ -17,6 +17,7 @@
 //! the atlas starts at [`FIRST_SLOTS`] and grows with larger batches (to the next power
 //! of two of the largest batch seen).
 
+use super::arena::next_resource_id;
 use super::counted::Encoder;
 use super::device::GpuDevice;
 use super::pyramid::{PyramidPass, buffer_levels};
@@ -125,7 +126,6 @@ impl SlotTargets {
         pyramid: &PyramidPass,
         (width, height): (u32, u32),
         poses: u32,
-        generation: u64,
     ) -> Self {
         let layout = LevelLayout::new(width, height);
         let (_, pyramid_stride) = buffer_levels(&layout);
@@ -167,7 +167,7 @@ impl SlotTargets {
             opacity,
             pyramid_depth,
             pyramid_bg,
-            generation,
+            generation: next_resource_id(),
         }
     }
 
