@@ -7,7 +7,7 @@ mod common;
 
 use common::scenes::settings;
 use homcull::core::camera::Camera;
-use homcull::core::cull::{CullSettings, Culler, PosePlan, PreparedScene, plan};
+use homcull::core::cull::{CullSettings, Culler, PosePlan, PreparedScene, StartedVisibility, plan};
 use homcull::core::gpu::targets::slots_for;
 use homcull::core::gpu::{GpuBackend, GpuContext, GpuOptions, RecordCounts};
 use homcull::core::occluders::OccluderParams;
@@ -166,4 +166,72 @@ fn the_refinement_draws_only_the_box_tests_survivors() {
     let mut backend = GpuBackend::new(uncounted, &prep);
     assert_eq!(backend.visibility(&prep, &batch, &hom).unwrap(), refined);
     assert_eq!(backend.refine_draws().unwrap(), None);
+}
+
+/// Batches started before the last one is read back (what the server's worker does
+/// under load: it records batch k+1 while the device runs batch k) answer exactly as
+/// batches run one at a time, whatever runs between them: another method, another
+/// viewport (the atlas is remade while batches that drew into the old one are still
+/// in flight). Two in flight need two staging buffers; once they exist, a repeat
+/// creates nothing. A batch its caller gave up on is waited for and dropped when a
+/// later one is taken.
+#[test]
+fn batches_in_flight_together_answer_as_batches_run_one_at_a_time() {
+    let Some(gpu) = common::private_gpu() else {
+        return;
+    };
+    let prep = PreparedScene::new(demo_city(), OccluderParams::default());
+    let mut backend = GpuBackend::new(gpu, &prep);
+    let hom = settings(&prep, Method::Hom, DebVariant::Raster, true);
+    let exact = settings(&prep, Method::Exact, DebVariant::Raster, false);
+    let a = plans(&prep, 16, [96, 54], &hom);
+    let b = plans(&prep, 16, [96, 54], &exact);
+    let c = plans(&prep, 3, [128, 72], &hom);
+    let one_at_a_time: Vec<_> = [(&a, &hom), (&b, &exact), (&c, &hom)]
+        .iter()
+        .map(|(p, s)| backend.visibility(&prep, p, s).unwrap())
+        .collect();
+    for round in 0..2 {
+        let before = backend.context().counts();
+        let started: Vec<_> = [(&a, &hom), (&b, &exact)]
+            .iter()
+            .map(|(p, s)| backend.start_visibility(&prep, p, s).unwrap())
+            .collect();
+        assert!(
+            started
+                .iter()
+                .all(|s| matches!(s, StartedVisibility::InFlight(_))),
+            "the GPU backend returns before reading back"
+        );
+        assert_eq!(backend.in_flight(), 2);
+        let answers: Vec<_> = started
+            .into_iter()
+            .map(|s| backend.finish_visibility(s).unwrap())
+            .collect();
+        assert_eq!(backend.in_flight(), 0);
+        assert_eq!(answers[..], one_at_a_time[..2], "round {round}");
+        let counts = backend.context().counts() - before;
+        assert_eq!(counts.submissions, 2);
+        if round == 1 {
+            assert_eq!((counts.buffers, counts.bind_groups), (0, 0), "{counts:?}");
+        }
+    }
+    // A third batch at another viewport while two are in flight.
+    let started: Vec<_> = [(&a, &hom), (&b, &exact), (&c, &hom)]
+        .iter()
+        .map(|(p, s)| backend.start_visibility(&prep, p, s).unwrap())
+        .collect();
+    assert_eq!(backend.in_flight(), 3);
+    let answers: Vec<_> = started
+        .into_iter()
+        .map(|s| backend.finish_visibility(s).unwrap())
+        .collect();
+    assert_eq!(answers, one_at_a_time);
+    // Taking the later of two drops the earlier; the earlier cannot be taken after.
+    let first = backend.start_visibility(&prep, &a, &hom).unwrap();
+    let second = backend.start_visibility(&prep, &b, &exact).unwrap();
+    assert_eq!(backend.finish_visibility(second).unwrap(), one_at_a_time[1]);
+    assert_eq!(backend.in_flight(), 0);
+    let err = backend.finish_visibility(first).unwrap_err().to_string();
+    assert!(err.contains("no batch in flight"), "{err}");
 }

@@ -122,3 +122,68 @@ async fn culls_pyramid_and_occluders() {
 
     srv.stop().await;
 }
+
+/// Under load the worker records a batch while the device runs the one before (a
+/// batch request longer than `gpu_batch` always does: its chunks are started one
+/// after another), and every answer is still the one a pose gets alone: concurrent
+/// batches of mixed options, each split into chunks, against single-pose culls.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn batches_recorded_while_the_device_runs_others_answer_as_single_poses() {
+    let srv = TestServer::start(|c| c.gpu_batch = 4).await;
+    let http = reqwest::Client::new();
+    let poses = street_walk(10, [160, 90]);
+    let body = |refine: bool| {
+        json!({"poses": poses.iter().map(pose_json).collect::<Vec<_>>(),
+               "options": {"method": "hom", "refine": refine}})
+    };
+    let mut singles = std::collections::HashMap::new();
+    for refine in [true, false] {
+        let mut visible = Vec::new();
+        for p in &poses {
+            let r: CullResponse = post_json(
+                &http,
+                srv.url("/v1/scenes/demo/cull"),
+                &json!({"pose": pose_json(p), "options": {"method": "hom", "refine": refine}}),
+            )
+            .await;
+            visible.push(r.visible);
+        }
+        singles.insert(refine, visible);
+    }
+    let clients = (0..6).map(|k| {
+        let (http, url, body) = (
+            http.clone(),
+            srv.url("/v1/scenes/demo/cull/batch"),
+            body(k % 2 == 0),
+        );
+        tokio::spawn(async move {
+            let r: BatchResponse = post_json(&http, url, &body).await;
+            (
+                k % 2 == 0,
+                r.results.into_iter().map(|r| r.visible).collect::<Vec<_>>(),
+            )
+        })
+    });
+    for client in clients {
+        let (refine, visible) = client.await.unwrap();
+        assert_eq!(visible, singles[&refine], "refine {refine}");
+    }
+    let metrics = http
+        .get(srv.url("/metrics"))
+        .send()
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    let overlapped: f64 = metrics
+        .lines()
+        .find_map(|l| l.strip_prefix("homcull_worker_overlapped_batches_total "))
+        .map_or(0.0, |v| v.trim().parse().unwrap());
+    eprintln!("adapter {}: {overlapped} batches overlapped", srv.adapter);
+    // The CPU backend answers as it starts: nothing is ever in flight there.
+    if !srv.adapter.starts_with("native CPU") {
+        assert!(overlapped >= 2.0, "batches overlapped: {overlapped}");
+    }
+    srv.stop().await;
+}

@@ -14,7 +14,9 @@ use std::sync::Arc;
 use homcull_proto::CullOptions;
 
 use crate::core::camera::Camera;
-use crate::core::cull::{CullError, CullSettings, Culler, PassTimes, PoseResult, PreparedScene};
+use crate::core::cull::{
+    CullError, CullSettings, Culler, PassTimes, PoseResult, PreparedScene, StartedCull,
+};
 use crate::core::gpu::{GpuBackend, GpuContext, GpuError, require_gpu};
 use crate::core::hom::ReferenceBackend;
 use crate::core::native::NativeBackend;
@@ -194,5 +196,21 @@ impl Engine {
     ) -> Result<Vec<PoseResult>, CullError> {
         self.backend
             .cull_preferring(&self.prepared, cams, settings, prefer)
+    }
+
+    /// See [`Culler::start_cull`]: plans and submits without waiting for the device.
+    pub fn start_cull(
+        &mut self,
+        cams: &[Camera],
+        settings: &CullSettings,
+        prefer: &[&[u32]],
+    ) -> Result<StartedCull, CullError> {
+        self.backend
+            .start_cull(&self.prepared, cams, settings, prefer)
+    }
+
+    /// See [`Culler::finish_cull`]: waits for a cull this engine started.
+    pub fn finish_cull(&mut self, started: StartedCull) -> Result<Vec<PoseResult>, CullError> {
+        self.backend.finish_cull(&self.prepared, started)
     }
 }

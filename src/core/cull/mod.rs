@@ -23,6 +23,7 @@ pub mod pass_times;
 pub mod plan;
 pub mod prepared;
 pub mod settings;
+pub mod started;
 
 pub use error::CullError;
 pub use mask::{clear_bit, empty_mask, has_bit, set_bit, words_per_pose};
@@ -30,8 +31,7 @@ pub use pass_times::{Pass, PassMsPerPose, PassTimes};
 pub use plan::{PosePlan, plan, plan_preferring};
 pub use prepared::PreparedScene;
 pub use settings::CullSettings;
-
-use std::time::Instant;
+pub use started::{StartedCull, StartedVisibility};
 
 use homcull_proto::CullStats;
 
@@ -90,67 +90,55 @@ pub trait Culler {
         s: &CullSettings,
         prefer: &[&[u32]],
     ) -> Result<Vec<PoseResult>, CullError> {
-        s.validate()?;
-        let start = Instant::now();
-        // Planning is independent per pose: spread it over the CPU cores.
-        let plans: Vec<PosePlan> = {
-            use rayon::prelude::*;
-            cams.par_iter()
-                .enumerate()
-                .map(|(k, c)| plan_preferring(prep, c, s, prefer.get(k).copied().unwrap_or(&[])))
-                .collect()
-        };
-        tracing::debug!(
-            target: "homcull::timing",
-            poses = cams.len(),
-            plan_ms = start.elapsed().as_secs_f64() * 1e3,
-            "planned a batch"
-        );
-        let mut masks = Vec::with_capacity(plans.len());
-        let mut image_ms = 0.0;
-        if s.uses_image() {
-            // Batches run per viewport size; consecutive equal sizes share one batch.
-            let mut i = 0;
-            while i < plans.len() {
-                let size = (plans[i].cam.width, plans[i].cam.height);
-                let j = i + plans[i..]
-                    .iter()
-                    .take_while(|p| (p.cam.width, p.cam.height) == size)
-                    .count();
-                let t = Instant::now();
-                masks.extend(self.visibility(prep, &plans[i..j], s)?);
-                image_ms += t.elapsed().as_secs_f64() * 1e3;
-                i = j;
-            }
+        let started = self.start_cull(prep, cams, s, prefer)?;
+        self.finish_cull(prep, started)
+    }
+
+    /// Starts the image-space work of a batch of plans (one viewport size) without
+    /// waiting for it where the backend can ([`started`]); the default answers at once.
+    fn start_visibility(
+        &mut self,
+        prep: &PreparedScene,
+        plans: &[PosePlan],
+        s: &CullSettings,
+    ) -> Result<StartedVisibility, CullError> {
+        Ok(StartedVisibility::Answered(
+            self.visibility(prep, plans, s)?,
+        ))
+    }
+
+    /// The bitmasks of a batch this backend started, waiting for them if needed.
+    fn finish_visibility(
+        &mut self,
+        started: StartedVisibility,
+    ) -> Result<Vec<Vec<u32>>, CullError> {
+        match started {
+            StartedVisibility::Answered(masks) => Ok(masks),
+            StartedVisibility::InFlight(batch) => Err(CullError::Backend {
+                backend: "culler",
+                message: format!("batch {batch} was not started by this backend"),
+            }),
         }
-        let n = cams.len().max(1) as f64;
-        let total_ms = start.elapsed().as_secs_f64() * 1e3 / n;
-        let objects = prep.scene.objects.len() as u32;
-        Ok(plans
-            .iter()
-            .enumerate()
-            .map(|(k, p)| {
-                let visible = match masks.get(k) {
-                    Some(m) => p
-                        .candidates
-                        .iter()
-                        .copied()
-                        .filter(|&c| m[c as usize / 32] >> (c % 32) & 1 == 1)
-                        .collect(),
-                    None => p.candidates.clone(),
-                };
-                let stats = CullStats {
-                    objects,
-                    candidates: p.candidates.len() as u32,
-                    culled_by_frustum: objects - p.candidates.len() as u32,
-                    culled_by_occlusion: (p.candidates.len() - visible.len()) as u32,
-                    occluders_used: p.occluders.ids.len() as u32,
-                    occluder_triangles: p.occluders.triangles,
-                    gpu_ms: image_ms / n,
-                    total_ms,
-                };
-                PoseResult { visible, stats }
-            })
-            .collect())
+    }
+
+    /// Plans `cams` and starts their image-space work ([`started`]): the first half of
+    /// [`Culler::cull_preferring`]. Finish started culls in the order they started.
+    fn start_cull(
+        &mut self,
+        prep: &PreparedScene,
+        cams: &[Camera],
+        s: &CullSettings,
+        prefer: &[&[u32]],
+    ) -> Result<StartedCull, CullError> {
+        started::start(self, prep, cams, s, prefer)
+    }
+
+    /// Waits for a cull [`Culler::start_cull`] started and answers each pose.
+    fn finish_cull(
+        &mut self,
+        prep: &PreparedScene,
+        started: StartedCull,
+    ) -> Result<Vec<PoseResult>, CullError> {
+        started::finish(self, prep, started)
     }
 }

@@ -20,16 +20,17 @@ use homcull_proto::Method;
 use super::context::GpuContext;
 use super::counted::{ComputePass, Encoder};
 use super::device::GpuError;
+use super::in_flight::InFlight;
 use super::inputs::BatchInputs;
 use super::passes::SharedPasses;
 use super::profile::Stamps;
 use super::pyramid::buffer_levels;
 use super::raster::RasterKind;
-use super::readback::{read_buffer, read_into, read_occlusion};
+use super::readback::{read_buffer, read_occlusion, submit_read};
 use super::scene_buffers::SceneBuffers;
 use super::targets::{SlotTargets, slots_for};
 use crate::core::cull::{
-    CullError, CullSettings, Culler, Pass, PassTimes, PosePlan, PreparedScene,
+    CullError, CullSettings, Culler, Pass, PassTimes, PosePlan, PreparedScene, StartedVisibility,
 };
 
 /// The GPU culler of one scene: its buffers, and the device's shared passes.
@@ -43,6 +44,8 @@ pub struct GpuBackend {
     profile: Option<PassTimes>,
     /// Buffers and bind groups kept between batches.
     inputs: BatchInputs,
+    /// Batches submitted and not yet read back.
+    in_flight: InFlight,
 }
 
 /// Locks the shared atlas (serialising batches on this device), sized for `plans`:
@@ -80,6 +83,7 @@ impl GpuBackend {
                 .collect(),
             profile: None,
             inputs: BatchInputs::new(),
+            in_flight: InFlight::new(),
             ctx,
         }
     }
@@ -132,6 +136,11 @@ impl GpuBackend {
         Ok((opacity, depth))
     }
 
+    /// Batches submitted and not yet read back (see `super::in_flight`).
+    pub fn in_flight(&self) -> usize {
+        self.in_flight.len()
+    }
+
     /// The refinement draws each pose of the last refined batch issued (its box
     /// test's survivors with triangles), where the adapter compacts them on the GPU;
     /// `None` elsewhere. For tests and measurements: one extra readback.
@@ -165,6 +174,17 @@ impl GpuBackend {
         Ok(masks)
     }
 
+    /// Records and submits one batch without waiting for it (see `super::in_flight`);
+    /// returns the ticket its bitmasks are taken with.
+    fn start(&mut self, plans: &[PosePlan], s: &CullSettings) -> Result<u64, GpuError> {
+        let ctx = Arc::clone(&self.ctx);
+        let passes = Arc::clone(&self.passes);
+        let guard = lock_targets(&ctx, &passes, plans);
+        let t = guard.as_ref().expect("targets exist");
+        let (encoder, refined, _) = self.record(&ctx, t, plans, s, false);
+        Ok(self.submit(encoder, refined))
+    }
+
     /// Records, submits and reads back one batch on the (locked) atlas `t`; with
     /// `profile` (and timestamp support), also its GPU time per pass.
     fn record_with(
@@ -174,11 +194,25 @@ impl GpuBackend {
         s: &CullSettings,
         profile: bool,
     ) -> Result<(Vec<Vec<u32>>, Option<PassTimes>), GpuError> {
-        let started = std::time::Instant::now();
-        let exact = s.options.method == Method::Exact;
         // The encoder borrows the context's counters, not `self` (read_masks takes it).
         let ctx = Arc::clone(&self.ctx);
-        let ctx = &*ctx;
+        let (encoder, refined, stamps) = self.record(&ctx, t, plans, s, profile);
+        self.read_masks(encoder, refined, stamps.as_ref())
+    }
+
+    /// Writes a batch's inputs and records its passes on the atlas `t` (with
+    /// timestamps when `profile` and the adapter has them); returns the encoder,
+    /// whether the result is the refined bitmask, and the stamps.
+    fn record<'c>(
+        &mut self,
+        ctx: &'c GpuContext,
+        t: &SlotTargets,
+        plans: &[PosePlan],
+        s: &CullSettings,
+        profile: bool,
+    ) -> (Encoder<'c>, bool, Option<Stamps>) {
+        let started = std::time::Instant::now();
+        let exact = s.options.method == Method::Exact;
         self.inputs
             .write(ctx, &self.passes, t, &self.scene, &self.draws, plans, s);
         let mut encoder = ctx.encoder();
@@ -210,7 +244,27 @@ impl GpuBackend {
             record_ms = started.elapsed().as_secs_f64() * 1e3,
             "recorded a batch"
         );
-        self.read_masks(encoder, refines, stamps.as_ref())
+        (encoder, refines, stamps)
+    }
+
+    /// Submits a recorded batch with the copy of its bitmask (the refined one when
+    /// `refined`) into a staging buffer of its own; returns its ticket.
+    fn submit(&mut self, encoder: Encoder<'_>, refined: bool) -> u64 {
+        let inputs = &self.inputs;
+        let result = if refined {
+            inputs.refine.refined.get()
+        } else {
+            inputs.mask.get()
+        };
+        let mut staging = self.in_flight.staging();
+        let read = submit_read(
+            &self.ctx,
+            encoder,
+            result,
+            inputs.mask_bytes(),
+            &mut staging,
+        );
+        self.in_flight.push(read, staging, inputs.words)
     }
 
     /// The exact oracle: per group, every candidate rasterized into the ID atlas (one
@@ -314,21 +368,10 @@ impl GpuBackend {
         refined: bool,
         stamps: Option<&Stamps>,
     ) -> Result<(Vec<Vec<u32>>, Option<PassTimes>), GpuError> {
-        let inputs = &mut self.inputs;
-        let (poses, words) = (inputs.poses_count, inputs.words);
+        let poses = self.inputs.poses_count;
         let resolved = stamps.map(|st| st.resolve(&mut encoder));
-        let result = if refined {
-            inputs.refine.refined.get()
-        } else {
-            inputs.mask.get()
-        };
-        let size = inputs.mask_bytes();
-        let bytes = read_into(&self.ctx, encoder, result, size, &mut inputs.readback)?;
-        let all: &[u32] = bytemuck::cast_slice(&bytes);
-        let masks = all
-            .chunks_exact(words as usize)
-            .map(|c| c.to_vec())
-            .collect();
+        let ticket = self.submit(encoder, refined);
+        let masks = self.in_flight.take(&self.ctx, ticket)?;
         let times = match (stamps, resolved) {
             (Some(st), Some((buffer, size))) => {
                 let encoder = self.ctx.encoder();
@@ -378,5 +421,31 @@ impl Culler for GpuBackend {
             return Ok(Vec::new());
         }
         Ok(self.record_and_read(plans, s)?)
+    }
+
+    /// Submits the batch and returns; profiling batches are read back at once (their
+    /// timestamps need a second readback).
+    fn start_visibility(
+        &mut self,
+        prep: &PreparedScene,
+        plans: &[PosePlan],
+        s: &CullSettings,
+    ) -> Result<StartedVisibility, CullError> {
+        if plans.is_empty() || self.profile.is_some() {
+            return Ok(StartedVisibility::Answered(
+                self.visibility(prep, plans, s)?,
+            ));
+        }
+        Ok(StartedVisibility::InFlight(self.start(plans, s)?))
+    }
+
+    fn finish_visibility(
+        &mut self,
+        started: StartedVisibility,
+    ) -> Result<Vec<Vec<u32>>, CullError> {
+        match started {
+            StartedVisibility::Answered(masks) => Ok(masks),
+            StartedVisibility::InFlight(ticket) => Ok(self.in_flight.take(&self.ctx, ticket)?),
+        }
     }
 }

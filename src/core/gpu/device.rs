@@ -216,10 +216,10 @@ impl GpuDevice {
         )
     }
 
-    /// Submits what `encoder` recorded.
-    pub(crate) fn submit(&self, encoder: Encoder<'_>) {
+    /// Submits what `encoder` recorded; the index lets a wait target this submission.
+    pub(crate) fn submit(&self, encoder: Encoder<'_>) -> wgpu::SubmissionIndex {
         self.counters.submission();
-        self.queue.submit([encoder.finish()]);
+        self.queue.submit([encoder.finish()])
     }
 
     /// A one-line description: adapter name and backend.

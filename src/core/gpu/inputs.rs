@@ -41,8 +41,6 @@ pub(crate) struct BatchInputs {
     pub(crate) test: TestInputs,
     pub(crate) refine: RefineInputs,
     pub(crate) oracle: OracleInputs,
-    /// Staging buffer for the bitmask's readback.
-    pub(crate) readback: GrowBuffer,
     /// What the batch writes, sent as one block ([`Upload::flush`] before recording).
     pub(crate) upload: Upload,
 }
@@ -69,7 +67,6 @@ impl BatchInputs {
             test: TestInputs::new(),
             refine: RefineInputs::new(),
             oracle: OracleInputs::new(),
-            readback: super::readback::readback_buffer(),
             upload: Upload::new(),
         }
     }

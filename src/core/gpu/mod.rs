@@ -26,6 +26,8 @@
 //! - [`inputs`]: what a batch writes before it records (pose uniforms, draws, each
 //!   pass's inputs), in buffers kept between batches.
 //! - [`readback`]: buffer and texture readback.
+//! - [`in_flight`]: batches submitted and not yet read back (the host records the next
+//!   batch while the device runs one).
 //! - [`batch`]: [`GpuBackend`], which records all passes of a batch of poses into one
 //!   submission with one readback, a fixed number of passes per group of poses.
 //! - [`profile`]: GPU time per pass from timestamps written between the passes.
@@ -38,6 +40,7 @@ pub mod context;
 pub mod counted;
 pub mod device;
 pub mod encode;
+pub mod in_flight;
 pub mod inputs;
 pub mod oracle;
 pub mod passes;

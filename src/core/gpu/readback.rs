@@ -10,40 +10,81 @@ use super::targets::SlotTargets;
 /// mappable buffer kept between batches), waits, and returns the bytes.
 pub(crate) fn read_into(
     gpu: &GpuDevice,
-    mut encoder: Encoder<'_>,
+    encoder: Encoder<'_>,
     src: &wgpu::Buffer,
     size: u64,
     staging: &mut GrowBuffer,
 ) -> Result<Vec<u8>, GpuError> {
+    submit_read(gpu, encoder, src, size, staging).wait(gpu)
+}
+
+/// A submitted copy into a mappable buffer whose mapping has been requested; the
+/// device runs it while the host goes on, and [`PendingRead::wait`] takes the bytes.
+pub(crate) struct PendingRead {
+    staging: wgpu::Buffer,
+    size: u64,
+    submission: wgpu::SubmissionIndex,
+    submitted: std::time::Instant,
+    mapped: std::sync::mpsc::Receiver<Result<(), wgpu::BufferAsyncError>>,
+}
+
+/// Records a copy of `src`'s first `size` bytes into `staging` (grown if needed) at
+/// the end of `encoder`, submits it and requests the mapping, without waiting.
+/// `staging` must not be read again before the returned [`PendingRead`] is waited for.
+pub(crate) fn submit_read(
+    gpu: &GpuDevice,
+    mut encoder: Encoder<'_>,
+    src: &wgpu::Buffer,
+    size: u64,
+    staging: &mut GrowBuffer,
+) -> PendingRead {
     staging.reserve(gpu, size);
-    let staging = staging.get();
-    encoder.raw.copy_buffer_to_buffer(src, 0, staging, 0, size);
-    let t = std::time::Instant::now();
-    gpu.submit(encoder);
-    let submit_ms = t.elapsed().as_secs_f64() * 1e3;
-    let (tx, rx) = std::sync::mpsc::channel();
-    let slice = staging.slice(..size);
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    gpu.device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| GpuError::Readback(e.to_string()))?;
-    rx.recv()
-        .map_err(|e| GpuError::Readback(e.to_string()))?
-        .map_err(|e| GpuError::Readback(e.to_string()))?;
-    tracing::debug!(
-        target: "homcull::timing",
-        submit_ms,
-        wait_ms = t.elapsed().as_secs_f64() * 1e3 - submit_ms,
-        "GPU submission and readback"
-    );
-    let data = slice
-        .get_mapped_range()
-        .map_err(|e| GpuError::Readback(e.to_string()))?
-        .to_vec();
-    staging.unmap();
-    Ok(data)
+    let staging = staging.get().clone();
+    encoder.raw.copy_buffer_to_buffer(src, 0, &staging, 0, size);
+    let submitted = std::time::Instant::now();
+    let submission = gpu.submit(encoder);
+    let (tx, mapped) = std::sync::mpsc::channel();
+    staging
+        .slice(..size)
+        .map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+    PendingRead {
+        staging,
+        size,
+        submission,
+        submitted,
+        mapped,
+    }
+}
+
+impl PendingRead {
+    /// Waits for the submission and the mapping, and returns the bytes (the staging
+    /// buffer is unmapped again, ready for the next batch).
+    pub(crate) fn wait(self, gpu: &GpuDevice) -> Result<Vec<u8>, GpuError> {
+        let err = |e: &dyn std::fmt::Display| GpuError::Readback(e.to_string());
+        let waited = std::time::Instant::now();
+        gpu.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(self.submission),
+                timeout: None,
+            })
+            .map_err(|e| err(&e))?;
+        self.mapped
+            .recv()
+            .map_err(|e| err(&e))?
+            .map_err(|e| err(&e))?;
+        tracing::debug!(
+            target: "homcull::timing",
+            in_flight_ms = self.submitted.elapsed().as_secs_f64() * 1e3,
+            wait_ms = waited.elapsed().as_secs_f64() * 1e3,
+            "GPU readback"
+        );
+        let slice = self.staging.slice(..self.size);
+        let data = slice.get_mapped_range().map_err(|e| err(&e))?.to_vec();
+        self.staging.unmap();
+        Ok(data)
+    }
 }
 
 /// [`read_into`] a staging buffer of its own (tests, debug images, profiling).

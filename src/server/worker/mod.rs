@@ -5,8 +5,9 @@
 //! blocks, takes the first waiting job, drains whatever else is waiting up to
 //! `gpu_batch` poses, groups the jobs by scene and options, and runs each group as
 //! one batch: one submission, one readback. Under load many clients share one
-//! submission; with one client a pose runs alone with no added wait. A full queue is
-//! answered `overloaded` at once instead of growing without bound.
+//! submission, and the worker plans and records the next batch while the device runs
+//! the last ([`pipeline`]); with one client a pose runs alone with no added wait. A
+//! full queue is answered `overloaded` at once instead of growing without bound.
 //!
 //! The worker is supervised: a panic outside a cull (inside one it becomes that
 //! batch's error) fails the jobs it held, and the worker starts over on the same queue,
@@ -17,7 +18,6 @@ use std::collections::HashMap;
 use std::panic::AssertUnwindSafe;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::time::Instant;
 
 use homcull_proto::CullOptions;
 use tokio::sync::{mpsc, oneshot, watch};
@@ -26,6 +26,9 @@ use super::error::ApiError;
 use crate::core::camera::Camera;
 use crate::core::cull::PoseResult;
 use crate::core::engine::Engine;
+use pipeline::{Pipeline, cull_batch};
+
+mod pipeline;
 
 /// A scene's engine, shared between its registry entry and the jobs that cull on it.
 /// Only the worker locks it, so it is never contended.
@@ -192,7 +195,26 @@ fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
 }
 
 fn run(rx: &mut mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool, faults: &mut u32) {
-    while let Some(first) = rx.blocking_recv() {
+    let mut pipeline = Pipeline::default();
+    loop {
+        // With a batch on the device, take what is waiting without blocking; when
+        // nothing is, finish that batch (answering its clients) before waiting.
+        let first = if pipeline.idle() {
+            rx.blocking_recv()
+        } else {
+            match rx.try_recv() {
+                Ok(job) => Some(job),
+                Err(mpsc::error::TryRecvError::Empty) => {
+                    pipeline.drain();
+                    continue;
+                }
+                Err(mpsc::error::TryRecvError::Disconnected) => None,
+            }
+        };
+        let Some(first) = first else {
+            pipeline.drain();
+            break;
+        };
         if *faults > 0 {
             *faults -= 1;
             panic!("injected fault");
@@ -219,7 +241,7 @@ fn run(rx: &mut mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool, fault
         }
         if batching {
             for group in group_jobs(jobs) {
-                run_group(group, gpu_batch);
+                pipeline.run_group(group, gpu_batch);
             }
         } else {
             for job in jobs {
@@ -262,74 +284,6 @@ fn group_jobs(jobs: Vec<CullJob>) -> Vec<Vec<CullJob>> {
         .collect()
 }
 
-/// Runs one batch on a scene's engine, turning panics into errors so that one bad
-/// batch never takes the worker down.
-fn cull_batch(
-    engine: &SharedEngine,
-    cams: &[Camera],
-    options: CullOptions,
-    prefer: &[&[u32]],
-) -> Result<Vec<PoseResult>, ApiError> {
-    let start = Instant::now();
-    let out = std::panic::catch_unwind(AssertUnwindSafe(|| {
-        let mut engine = engine.lock().unwrap_or_else(|p| p.into_inner());
-        let settings = engine.settings(options);
-        engine.cull_preferring(cams, &settings, prefer)
-    }));
-    let secs = start.elapsed().as_secs_f64();
-    metrics::histogram!("homcull_gpu_batch_poses").record(cams.len() as f64);
-    metrics::histogram!("homcull_gpu_batch_seconds").record(secs);
-    metrics::counter!("homcull_culls_total", "method" => options.method.name())
-        .increment(cams.len() as u64);
-    match out {
-        Ok(Ok(results)) => Ok(results),
-        Ok(Err(e)) => Err(e.into()),
-        Err(panic) => {
-            tracing::error!("a cull panicked: {}", panic_message(&*panic));
-            Err(ApiError::internal("the cull failed inside the engine"))
-        }
-    }
-}
-
-/// Runs a group of jobs that share an engine and options as batches of at most
-/// `gpu_batch` poses; between batches it stops if every client of the group has gone
-/// (a huge batch from a client that timed out does not hold the device for others).
-fn run_group(group: Vec<CullJob>, gpu_batch: usize) {
-    let engine = group[0].engine.clone();
-    let options = group[0].options;
-    let cams: Vec<Camera> = group.iter().flat_map(|j| j.cams.iter().cloned()).collect();
-    let prefer: Vec<&[u32]> = group
-        .iter()
-        .flat_map(|j| std::iter::repeat_n(preferred(j), j.cams.len()))
-        .collect();
-    let mut results = Vec::with_capacity(cams.len());
-    for (chunk, chunk_prefer) in cams.chunks(gpu_batch).zip(prefer.chunks(gpu_batch)) {
-        if group.iter().all(|j| j.reply.is_closed()) {
-            metrics::counter!("homcull_worker_abandoned_total").increment(group.len() as u64);
-            return;
-        }
-        match cull_batch(&engine, chunk, options, chunk_prefer) {
-            Ok(mut r) => results.append(&mut r),
-            Err(e) => {
-                for job in group {
-                    let _ = job.reply.send(Err(e.clone()));
-                }
-                return;
-            }
-        }
-    }
-    // Hand each job its slice, in order.
-    for job in group.into_iter().rev() {
-        let tail = results.split_off(results.len() - job.cams.len());
-        let _ = job.reply.send(Ok(tail));
-    }
-}
-
-/// The objects a job's poses select occluders from first (none: nearest first).
-fn preferred(job: &CullJob) -> &[u32] {
-    job.prefer.as_deref().map_or(&[], Vec::as_slice)
-}
-
 /// Without batching: one submission per pose (what batching is measured against).
 fn run_one_by_one(job: CullJob) {
     let mut out = Vec::with_capacity(job.cams.len());
@@ -337,7 +291,7 @@ fn run_one_by_one(job: CullJob) {
         if job.reply.is_closed() {
             return; // the client has gone
         }
-        let prefer = [preferred(&job)];
+        let prefer = [job.prefer.as_deref().map_or(&[][..], Vec::as_slice)];
         match cull_batch(&job.engine, std::slice::from_ref(cam), job.options, &prefer) {
             Ok(mut r) => out.append(&mut r),
             Err(e) => {

@@ -1,0 +1,149 @@
+//! Culls started and not yet answered: the seam that lets a caller plan and record one
+//! batch while the device still runs the one before.
+//!
+//! [`Culler::start_cull`] plans the poses and starts the image-space work of each
+//! viewport size ([`Culler::start_visibility`]); [`Culler::finish_cull`] waits for
+//! that work and answers. A backend that works on the calling thread (the CPU ones)
+//! answers inside `start_visibility`; the GPU backend submits and returns, so that
+//! between the two calls the host is free while the device runs. Started culls of one
+//! backend are finished in the order they were started. [`Culler::cull_preferring`]
+//! is the two calls back to back.
+
+use std::time::Instant;
+
+use homcull_proto::CullStats;
+
+use super::{CullError, CullSettings, Culler, PosePlan, PoseResult, PreparedScene};
+use crate::core::camera::Camera;
+
+/// The image-space work of one batch, as [`Culler::start_visibility`] left it.
+#[derive(Debug)]
+pub enum StartedVisibility {
+    /// Already answered: one bitmask per pose.
+    Answered(Vec<Vec<u32>>),
+    /// Submitted to a device and not yet read back; the number identifies the batch to
+    /// the backend that started it ([`Culler::finish_visibility`] waits for it).
+    InFlight(u64),
+}
+
+/// A cull started by [`Culler::start_cull`]: its plans and the batches running on them.
+pub struct StartedCull {
+    plans: Vec<PosePlan>,
+    /// One per run of consecutive poses of the same viewport size (none for methods
+    /// that use no image).
+    batches: Vec<StartedVisibility>,
+    started: Instant,
+    /// Time spent starting and finishing the image-space work, ms.
+    image_ms: f64,
+}
+
+impl StartedCull {
+    /// Poses in the cull.
+    pub fn poses(&self) -> usize {
+        self.plans.len()
+    }
+
+    /// Whether some of its work is still on a device.
+    pub fn in_flight(&self) -> bool {
+        self.batches
+            .iter()
+            .any(|b| matches!(b, StartedVisibility::InFlight(_)))
+    }
+}
+
+/// [`Culler::start_cull`]: plans every pose (in parallel: planning is independent per
+/// pose) and starts one batch per run of equal viewport sizes.
+pub(super) fn start<C: Culler + ?Sized>(
+    culler: &mut C,
+    prep: &PreparedScene,
+    cams: &[Camera],
+    s: &CullSettings,
+    prefer: &[&[u32]],
+) -> Result<StartedCull, CullError> {
+    s.validate()?;
+    let started = Instant::now();
+    let plans: Vec<PosePlan> = {
+        use rayon::prelude::*;
+        cams.par_iter()
+            .enumerate()
+            .map(|(k, c)| super::plan_preferring(prep, c, s, prefer.get(k).copied().unwrap_or(&[])))
+            .collect()
+    };
+    tracing::debug!(
+        target: "homcull::timing",
+        poses = cams.len(),
+        plan_ms = started.elapsed().as_secs_f64() * 1e3,
+        "planned a batch"
+    );
+    let mut batches = Vec::new();
+    let image = Instant::now();
+    if s.uses_image() {
+        let mut i = 0;
+        while i < plans.len() {
+            let size = (plans[i].cam.width, plans[i].cam.height);
+            let j = i + plans[i..]
+                .iter()
+                .take_while(|p| (p.cam.width, p.cam.height) == size)
+                .count();
+            batches.push(culler.start_visibility(prep, &plans[i..j], s)?);
+            i = j;
+        }
+    }
+    Ok(StartedCull {
+        plans,
+        batches,
+        started,
+        image_ms: image.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+/// [`Culler::finish_cull`]: waits for the started batches and answers every pose.
+/// `total_ms` in the stats is the time from start to answer per pose, so it includes
+/// whatever the caller did in between.
+pub(super) fn finish<C: Culler + ?Sized>(
+    culler: &mut C,
+    prep: &PreparedScene,
+    started: StartedCull,
+) -> Result<Vec<PoseResult>, CullError> {
+    let StartedCull {
+        plans,
+        batches,
+        started,
+        mut image_ms,
+    } = started;
+    let image = Instant::now();
+    let mut masks = Vec::with_capacity(plans.len());
+    for batch in batches {
+        masks.extend(culler.finish_visibility(batch)?);
+    }
+    image_ms += image.elapsed().as_secs_f64() * 1e3;
+    let n = plans.len().max(1) as f64;
+    let total_ms = started.elapsed().as_secs_f64() * 1e3 / n;
+    let objects = prep.scene.objects.len() as u32;
+    Ok(plans
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let visible = match masks.get(k) {
+                Some(m) => p
+                    .candidates
+                    .iter()
+                    .copied()
+                    .filter(|&c| m[c as usize / 32] >> (c % 32) & 1 == 1)
+                    .collect(),
+                None => p.candidates.clone(),
+            };
+            let stats = CullStats {
+                objects,
+                candidates: p.candidates.len() as u32,
+                culled_by_frustum: objects - p.candidates.len() as u32,
+                culled_by_occlusion: (p.candidates.len() - visible.len()) as u32,
+                occluders_used: p.occluders.ids.len() as u32,
+                occluder_triangles: p.occluders.triangles,
+                gpu_ms: image_ms / n,
+                total_ms,
+            };
+            PoseResult { visible, stats }
+        })
+        .collect())
+}
