@@ -9,8 +9,10 @@
 //! bind group is keyed by the IDs of what it binds, so it is remade exactly when one of
 //! them was reallocated (or the targets were remade for another viewport).
 //!
-//! Batches on one backend never overlap (each waits for its readback), so a buffer is
-//! never written while the GPU still reads it.
+//! Batches may be in flight together (`super::in_flight`): a batch's writes reach a
+//! buffer only after every earlier submission has read it (`queue.write_buffer` and
+//! the copies recorded in the batch's own encoder are ordered on the queue), and an
+//! allocation dropped while a batch still uses it lives until that batch is done.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
