@@ -44,6 +44,7 @@ fn settings(method: Method) -> CullSettings {
             threshold: 1.0,
             deb: DebVariant::Raster,
             refine: true,
+            lod: None,
         },
         prepared(),
     )
@@ -118,6 +119,7 @@ fn cpu_plan(b: Bencher, deb: DebVariant) {
             threshold: 1.0,
             deb,
             refine: true,
+            lod: None,
         },
         p,
     );

@@ -39,6 +39,7 @@ fn pass_times_cover_the_passes_each_method_runs() {
                 threshold: 1.0,
                 deb: DebVariant::Raster,
                 refine,
+                lod: None,
             },
             &prep,
         )

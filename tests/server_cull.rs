@@ -187,3 +187,73 @@ async fn batches_recorded_while_the_device_runs_others_answer_as_single_poses() 
     }
     srv.stop().await;
 }
+
+/// With `options.lod`, single and batch answers carry a level per visible object,
+/// computed from the pose and the object table the server publishes; without it, no
+/// `lod` key; bad thresholds are a 400 that says why.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn answers_carry_level_of_detail_hints_when_asked() {
+    use homcull::core::camera::Camera;
+    use homcull::core::geom::Aabb;
+    use homcull_proto::{LodThresholds, ObjectList};
+
+    let srv = TestServer::start(|_| {}).await;
+    let http = reqwest::Client::new();
+    let objects: ObjectList = get_json(&http, srv.url("/v1/scenes/demo/objects")).await;
+    let bounds = |id: u32| {
+        let [min, max] = objects.objects[id as usize].aabb;
+        Aabb {
+            min: min.into(),
+            max: max.into(),
+        }
+    };
+    let poses = street_walk(4, [960, 540]);
+    let thresholds = LodThresholds::new(&[64.0, 16.0, 4.0]).unwrap();
+    let options = json!({"method": "hom", "lod": {"px": [64, 16, 4]}});
+    let batch: BatchResponse = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/cull/batch"),
+        &json!({"poses": poses.iter().map(pose_json).collect::<Vec<_>>(), "options": options}),
+    )
+    .await;
+    let mut levels_seen = std::collections::BTreeSet::new();
+    for (pose, r) in poses.iter().zip(&batch.results) {
+        let cam = Camera::new(pose).unwrap();
+        let expected =
+            homcull::core::lod::levels(std::slice::from_ref(&cam), &r.visible, bounds, &thresholds);
+        assert_eq!(r.lod.as_ref(), Some(&expected));
+        levels_seen.extend(expected);
+        let single: CullResponse = post_json(
+            &http,
+            srv.url("/v1/scenes/demo/cull"),
+            &json!({"pose": pose_json(pose), "options": options}),
+        )
+        .await;
+        assert_eq!((&single.visible, &single.lod), (&r.visible, &r.lod));
+    }
+    assert!(levels_seen.len() >= 3, "levels {levels_seen:?}");
+    let plain: Value = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/cull"),
+        &json!({"pose": pose_json(&poses[0])}),
+    )
+    .await;
+    assert!(plain.get("lod").is_none(), "no lod unless asked: {plain}");
+    for bad in [
+        json!({"px": [4, 16]}),
+        json!({"px": []}),
+        json!({"px": [64, -1]}),
+    ] {
+        let r = http
+            .post(srv.url("/v1/scenes/demo/cull"))
+            .json(&json!({"pose": pose_json(&poses[0]), "options": {"lod": bad}}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 400, "{bad}");
+        let body: homcull_proto::ErrorBody = r.json().await.unwrap();
+        let message = body.error.message;
+        assert!(message.contains("lod.px"), "{bad}: {message}");
+    }
+    srv.stop().await;
+}

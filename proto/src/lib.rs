@@ -9,14 +9,17 @@
 //! - [`Pose`]: a camera pose as clients send it.
 //! - [`CullOptions`], [`Method`], [`DebVariant`]: how to cull.
 //! - [`CullStats`], [`CullResponse`]: what a cull answers.
+//! - [`lod`]: level-of-detail thresholds ([`LodThresholds`]) and levels.
 //! - [`rest`]: the other JSON bodies of the REST API (scenes, objects, batches, errors).
 //! - [`frame`]: binary WebSocket frames, encoder and decoder.
 
 use serde::{Deserialize, Serialize};
 
 pub mod frame;
+pub mod lod;
 pub mod rest;
 
+pub use lod::{InvalidLod, LodSpec, LodThresholds, MAX_LOD_THRESHOLDS};
 pub use rest::*;
 
 /// Version of the wire protocol; bumped on every incompatible change. Binary frames carry
@@ -181,6 +184,11 @@ pub struct CullOptions {
     /// their own triangles against the occluders (default true). Culls nearly every
     /// hidden object a bounding box cannot; `false` is the box test alone.
     pub refine: bool,
+    /// Level-of-detail hints (`{"px": [t1, t2, …]}`): when given, the answer carries a
+    /// level per visible object ([`lod`]). It does not change what is visible.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "openapi", schema(value_type = Option<LodSpec>))]
+    pub lod: Option<LodThresholds>,
 }
 
 impl Default for CullOptions {
@@ -190,6 +198,7 @@ impl Default for CullOptions {
             threshold: 1.0,
             deb: DebVariant::Raster,
             refine: true,
+            lod: None,
         }
     }
 }
@@ -252,6 +261,10 @@ pub struct CullStats {
 pub struct CullResponse {
     /// IDs of the objects that may be visible, ascending.
     pub visible: Vec<u32>,
+    /// With `options.lod`: the level of detail of each visible object, in the order of
+    /// `visible` (0 the finest; see [`lod`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lod: Option<Vec<u8>>,
     /// What the cull did.
     pub stats: CullStats,
 }

@@ -106,6 +106,10 @@ pub struct CullArgs {
     pub method: Method,
     #[command(flatten)]
     pub params: CullParams,
+    /// Level-of-detail thresholds in pixels, largest first (e.g. 64,16,4): the answer
+    /// then carries a level per visible object in `lod`.
+    #[arg(long)]
+    pub lod_px: Option<String>,
 }
 
 #[derive(Debug, Args)]

@@ -1,11 +1,12 @@
 //! `homcull cull`: one pose on one scene, the answer as JSON on stdout.
 
 use anyhow::{Context, Result};
-use homcull_proto::{CullOptions, CullResponse, Pose};
+use homcull_proto::{CullOptions, CullResponse, LodThresholds, Pose};
 
 use super::args::CullArgs;
 use super::{load_scene, open_backend};
 use crate::core::camera::Camera;
+use crate::core::lod;
 use crate::core::resident::{Residency, ResidentScene};
 
 pub fn run(a: CullArgs) -> Result<()> {
@@ -16,6 +17,11 @@ pub fn run(a: CullArgs) -> Result<()> {
         threshold: a.params.threshold,
         deb: a.params.deb,
         refine: !a.params.no_refine,
+        lod: a
+            .lod_px
+            .as_deref()
+            .map(LodThresholds::parse_list)
+            .transpose()?,
     };
     options.validate()?;
     let scene = load_scene(&a.scene)?;
@@ -29,8 +35,18 @@ pub fn run(a: CullArgs) -> Result<()> {
         .engine
         .cull(std::slice::from_ref(&cam), &settings)?
         .remove(0);
+    let lod = options.lod.map(|t| {
+        let objects = &resident.engine.prepared.scene.objects;
+        lod::levels(
+            std::slice::from_ref(&cam),
+            &r.visible,
+            |id| objects[id as usize].aabb,
+            &t,
+        )
+    });
     let out = CullResponse {
         visible: r.visible,
+        lod,
         stats: r.stats,
     };
     println!("{}", serde_json::to_string(&out)?);

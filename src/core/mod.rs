@@ -15,6 +15,7 @@
 //! - [`gpu`]: the wgpu backend, the same passes batched on a device.
 //! - [`engine`], [`resident`]: a prepared scene with its backend, and the one place a
 //!   resident scene (engine, PVS, walk start, object table) is assembled.
+//! - [`lod`]: level-of-detail hints from each visible object's size on screen.
 //! - [`pvs`], [`sampler`]: what a scene knows of its own playable space (the maps'
 //!   potentially-visible sets, street-level eyes), used to serve and to evaluate.
 
@@ -25,6 +26,7 @@ pub mod engine;
 pub mod geom;
 pub mod gpu;
 pub mod hom;
+pub mod lod;
 pub mod native;
 pub mod occluders;
 pub mod pvs;

@@ -46,6 +46,7 @@ impl MethodSpec {
                 threshold,
                 deb,
                 refine,
+                lod: None,
             },
         })
     }

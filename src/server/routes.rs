@@ -13,7 +13,8 @@ use axum::extract::{Path, Query, State};
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use homcull_proto::{
-    BatchRequest, BatchResponse, CullRequest, CullResponse, ObjectList, SceneInfo, SceneList,
+    BatchRequest, BatchResponse, CullRequest, CullResponse, LodThresholds, ObjectList, SceneInfo,
+    SceneList,
 };
 use serde::Deserialize;
 
@@ -21,6 +22,7 @@ use super::error::ApiError;
 use super::state::{AppState, GlbSource, SceneEntry};
 use crate::core::camera::Camera;
 use crate::core::cull::PoseResult;
+use crate::core::lod;
 use crate::core::scene::load_glb_bytes_within;
 
 /// Liveness: the process answers.
@@ -311,9 +313,20 @@ fn within_work_budget(state: &AppState, cams: &[Camera]) -> Result<(), ApiError>
     Ok(())
 }
 
-fn response(r: PoseResult) -> CullResponse {
+/// The answer to the pose `cam`, with a level per visible object when `lod` asks.
+fn response(
+    r: PoseResult,
+    cam: &Camera,
+    scene: &SceneEntry,
+    lod: Option<LodThresholds>,
+) -> CullResponse {
+    let lod = lod.map(|t| {
+        let eyes = std::slice::from_ref(cam);
+        lod::levels(eyes, &r.visible, |id| scene.object_bounds(id), &t)
+    });
     CullResponse {
         visible: r.visible,
+        lod,
         stats: r.stats,
     }
 }
@@ -335,9 +348,10 @@ pub async fn cull(
     let scene = state.scene(&id)?;
     let mut out = state
         .worker
-        .cull(scene.engine.clone(), vec![cam], req.options)
+        .cull(scene.engine.clone(), vec![cam.clone()], req.options)
         .await?;
-    Ok(Json(response(out.remove(0))))
+    let lod = req.options.lod;
+    Ok(Json(response(out.remove(0), &cam, &scene, lod)))
 }
 
 /// Culls many poses in one GPU submission; results in pose order.
@@ -376,10 +390,15 @@ pub async fn cull_batch(
     }
     let out = state
         .worker
-        .cull(scene.engine.clone(), cams, req.options)
+        .cull(scene.engine.clone(), cams.clone(), req.options)
         .await?;
+    let lod = req.options.lod;
     Ok(Json(BatchResponse {
-        results: out.into_iter().map(response).collect(),
+        results: out
+            .into_iter()
+            .zip(&cams)
+            .map(|(r, cam)| response(r, cam, &scene, lod))
+            .collect(),
     }))
 }
 

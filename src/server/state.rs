@@ -14,6 +14,7 @@ use super::error::ApiError;
 use super::store::{OccluderCache, Store};
 use super::worker::{SharedEngine, WorkerHandle};
 use crate::core::engine::Backend;
+use crate::core::geom::Aabb;
 use crate::core::occluders::OccluderParams;
 use crate::core::resident::{Residency, ResidentScene};
 use crate::core::scene::Scene;
@@ -63,6 +64,15 @@ pub struct SceneEntry {
 }
 
 impl SceneEntry {
+    /// Object `id`'s world bounds (as the object table gives them to clients).
+    pub fn object_bounds(&self, id: u32) -> Aabb {
+        let [min, max] = self.objects[id as usize].aabb;
+        Aabb {
+            min: min.into(),
+            max: max.into(),
+        }
+    }
+
     /// Makes a scene resident (occluders from `cache` when it fits) on `backend`.
     pub(super) fn build(
         origin: Origin,

@@ -19,6 +19,7 @@ pub fn settings(
             threshold: 1.0,
             deb,
             refine,
+            lod: None,
         },
         prep,
     )

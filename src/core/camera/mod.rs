@@ -266,6 +266,24 @@ impl Camera {
 
     /// [`Camera::project_box`], corner by corner, clipping at the near plane.
     fn project_box_clipped(&self, b: &Aabb) -> Option<ScreenRect> {
+        let (lo, hi, nearest, farthest) = self.clipped_bounds(b)?;
+        ScreenRect::from_bounds(lo, hi, self.width, self.height, nearest, farthest)
+    }
+
+    /// The float pixel bounds `(lo, hi)` of a box's projection, clipped at the near
+    /// plane and clamped to the viewport; `None` when no part of it is in front of the
+    /// near plane or on screen. What level-of-detail hints measure.
+    pub fn projected_bounds(&self, b: &Aabb) -> Option<([f32; 2], [f32; 2])> {
+        let (lo, hi, _, _) = self.clipped_bounds(b)?;
+        let (w, h) = (self.width as f32, self.height as f32);
+        let lo = [lo[0].clamp(0.0, w), lo[1].clamp(0.0, h)];
+        let hi = [hi[0].clamp(0.0, w), hi[1].clamp(0.0, h)];
+        (lo[0] < hi[0] && lo[1] < hi[1]).then_some((lo, hi))
+    }
+
+    /// Pixel bounds (not rounded or clamped) and view-depth range of a box's part in
+    /// front of the near plane: its corners there, and where its edges cross the plane.
+    fn clipped_bounds(&self, b: &Aabb) -> Option<([f32; 2], [f32; 2], f32, f32)> {
         let corners = b.corners().map(|c| (self.view * c.extend(1.0)).truncate());
         let mut lo = [f32::INFINITY; 2];
         let mut hi = [f32::NEG_INFINITY; 2];
@@ -302,7 +320,7 @@ impl Camera {
                 }
             }
         }
-        ScreenRect::from_bounds(lo, hi, self.width, self.height, nearest, farthest)
+        Some((lo, hi, nearest, farthest))
     }
 }
 

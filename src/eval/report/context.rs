@@ -167,6 +167,7 @@ pub(super) fn spec(name: &str, threshold: f32) -> MethodSpec {
             threshold,
             deb: DebVariant::Raster,
             refine: false,
+            lod: None,
         },
     }
 }

@@ -263,6 +263,7 @@ fn options_key(o: &CullOptions) -> OptionsKey {
         threshold,
         deb,
         refine,
+        lod: _, // levels are computed from the answer after the cull (core::lod)
     } = *o; // destructured: a new option field fails to compile until it is keyed
     (method as u8, deb as u8, threshold.to_bits(), refine)
 }

@@ -36,7 +36,7 @@ use axum::response::Response;
 use futures_util::{SinkExt, StreamExt};
 use glam::Vec3;
 use homcull_proto::frame::{ErrorCode, ErrorFrame, Frame, Hello};
-use homcull_proto::{CullOptions, DebVariant, Method, PROTOCOL_VERSION, Pose};
+use homcull_proto::{CullOptions, DebVariant, LodThresholds, Method, PROTOCOL_VERSION, Pose};
 use serde::Deserialize;
 use tokio::sync::{Mutex, Notify, mpsc};
 
@@ -82,6 +82,9 @@ pub struct StreamQuery {
     /// cannot take every in-frustum occluder; then the set may be smaller than
     /// `POST /cull`'s for the same pose (never missing what the pose shows).
     pub seen_first: Option<bool>,
+    /// Level-of-detail thresholds in pixels, largest first (`lod_px=64,16,4`): every
+    /// frame then carries a level per object it sends (see `homcull_proto::lod`).
+    pub lod_px: Option<String>,
 }
 
 /// How a stream shapes its sets (see [`super::motion`]); both off by default, when the
@@ -112,6 +115,12 @@ pub async fn stream(
         threshold: q.threshold.unwrap_or(defaults.threshold),
         deb: q.deb.unwrap_or(defaults.deb),
         refine: q.refine.unwrap_or(false),
+        lod: q
+            .lod_px
+            .as_deref()
+            .map(LodThresholds::parse_list)
+            .transpose()
+            .map_err(|e| ApiError::bad_request("invalid_options", e.to_string()))?,
     };
     options.validate()?;
     let smoothing = Smoothing {
