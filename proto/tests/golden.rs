@@ -18,8 +18,8 @@ use std::sync::Once;
 
 use homcull_proto::PROTOCOL_VERSION;
 use homcull_proto::frame::{
-    ErrorCode, ErrorFrame, Frame, FrameStats, HEADER_WORDS, Hello, MAGIC, PoseFrame, VisibleDelta,
-    VisibleFull, apply_delta,
+    ErrorCode, ErrorFrame, Frame, FrameStats, HEADER_WORDS, Hello, LodChanges, MAGIC, PoseFrame,
+    VisibleDelta, VisibleFull, apply_delta, apply_delta_with_levels, diff_levels,
 };
 use serde_json::{Value, json};
 
@@ -33,6 +33,9 @@ const ERROR_MESSAGE: &str = "fov_y_deg must be in (0°, 180°), got 200";
 /// The visible set after `full.hex`, then after `delta.hex` is applied to it.
 const FULL_IDS: [u32; 6] = [3, 17, 256, 1000, 1001, 1233];
 const AFTER_DELTA: [u32; 7] = [3, 5, 17, 256, 700, 1000, 1001];
+/// The levels of `full_lod.hex`, then of the set after `delta_lod.hex`.
+const FULL_LEVELS: [u8; 6] = [0, 1, 1, 4, 2, 3];
+const LEVELS_AFTER_DELTA: [u8; 7] = [0, 3, 2, 1, 0, 4, 8];
 
 /// The golden frames, in file order.
 fn goldens() -> Vec<(&'static str, Frame)> {
@@ -71,6 +74,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                     total_us: 1200,
                 },
                 ids: FULL_IDS.to_vec(),
+                levels: None,
             }),
         ),
         (
@@ -87,6 +91,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                 },
                 added: vec![5, 700],
                 removed: vec![1233],
+                lod: None,
             }),
         ),
         (
@@ -102,6 +107,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                     total_us: 35,
                 },
                 ids: vec![],
+                levels: None,
             }),
         ),
         (
@@ -118,6 +124,44 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                 },
                 added: vec![],
                 removed: vec![],
+                lod: None,
+            }),
+        ),
+        (
+            "full_lod",
+            Frame::Full(VisibleFull {
+                seq: 7,
+                ack: 47,
+                stats: FrameStats {
+                    candidates: 10,
+                    occluders_used: 2,
+                    dropped_poses: 0,
+                    gpu_us: 850,
+                    total_us: 1200,
+                },
+                ids: FULL_IDS.to_vec(),
+                levels: Some(FULL_LEVELS.to_vec()),
+            }),
+        ),
+        (
+            "delta_lod",
+            Frame::Delta(VisibleDelta {
+                seq: 8,
+                ack: 48,
+                stats: FrameStats {
+                    candidates: 9,
+                    occluders_used: 2,
+                    dropped_poses: 0,
+                    gpu_us: 790,
+                    total_us: 1100,
+                },
+                added: vec![5, 700],
+                removed: vec![1233],
+                lod: Some(LodChanges {
+                    added: vec![3, 0],
+                    changed: vec![17, 1001],
+                    changed_levels: vec![2, 8],
+                }),
             }),
         ),
         (
@@ -140,6 +184,7 @@ fn delta_base(name: &str) -> Option<(&'static str, Vec<u32>)> {
     match name {
         "delta" => Some(("full.hex", AFTER_DELTA.to_vec())),
         "delta_empty" => Some(("full_empty.hex", vec![])),
+        "delta_lod" => Some(("full_lod.hex", AFTER_DELTA.to_vec())),
         _ => None,
     }
 }
@@ -190,21 +235,34 @@ fn frame_json(name: &str, frame: &Frame) -> Value {
             "near": p.near,
             "far": p.far,
         }),
-        Frame::Full(f) => json!({
-            "stats": stats_json(&f.stats),
-            "derived": derived_json(&f.stats, f.ids.len()),
-            "ids": f.ids,
-        }),
+        Frame::Full(f) => {
+            let mut v = json!({
+                "stats": stats_json(&f.stats),
+                "derived": derived_json(&f.stats, f.ids.len()),
+                "ids": f.ids,
+            });
+            if let Some(levels) = &f.levels {
+                v["levels"] = json!(levels);
+            }
+            v
+        }
         Frame::Delta(d) => {
             let (base, after) = delta_base(name).expect("every delta golden has a base");
-            json!({
+            let mut v = json!({
                 "stats": stats_json(&d.stats),
                 "derived": derived_json(&d.stats, after.len()),
                 "added": d.added,
                 "removed": d.removed,
                 "base": base,
                 "visible_after": after,
-            })
+            });
+            if let Some(l) = &d.lod {
+                v["added_levels"] = json!(l.added);
+                v["changed"] = json!(l.changed);
+                v["changed_levels"] = json!(l.changed_levels);
+                v["levels_after"] = json!(LEVELS_AFTER_DELTA);
+            }
+            v
         }
         Frame::Error(e) => json!({
             "code": e.code as u32,
@@ -341,6 +399,25 @@ fn frames_json_describes_the_goldens() {
             }
         }
     }
+}
+
+#[test]
+fn the_levels_of_delta_lod_applied_to_full_lod_are_levels_after() {
+    let (Frame::Full(full), Frame::Delta(delta)) = (
+        Frame::decode(&from_hex("full_lod", &read("full_lod.hex"))).unwrap(),
+        Frame::decode(&from_hex("delta_lod", &read("delta_lod.hex"))).unwrap(),
+    ) else {
+        panic!("full_lod.hex is a full frame and delta_lod.hex a delta");
+    };
+    let (mut set, mut levels) = (full.ids.clone(), full.levels.clone().unwrap());
+    apply_delta_with_levels(&mut set, &mut levels, &delta).unwrap();
+    assert_eq!(
+        (&set[..], &levels[..]),
+        (&AFTER_DELTA[..], &LEVELS_AFTER_DELTA[..])
+    );
+    // And the delta is what the sender computes from the two sets.
+    let lod = diff_levels(&full.ids, full.levels.as_ref().unwrap(), &set, &levels);
+    assert_eq!(Some(lod), delta.lod);
 }
 
 #[test]

@@ -3,8 +3,8 @@
 //! same bytes), and `diff`/`apply_delta` agree.
 
 use homcull_proto::frame::{
-    ErrorCode, ErrorFrame, Frame, FrameStats, HEADER_WORDS, Hello, MAGIC, PoseFrame, VisibleDelta,
-    VisibleFull, apply_delta, diff,
+    ErrorCode, ErrorFrame, Frame, FrameStats, HEADER_WORDS, Hello, LodChanges, MAGIC, MAX_LEVEL,
+    PoseFrame, VisibleDelta, VisibleFull, apply_delta, apply_delta_with_levels, diff, diff_levels,
 };
 use homcull_proto::{PROTOCOL_VERSION, Pose};
 use proptest::collection::{btree_map, btree_set, vec};
@@ -81,31 +81,61 @@ fn pose() -> impl Strategy<Value = Frame> {
 }
 
 fn full() -> impl Strategy<Value = Frame> {
-    (any::<u32>(), any::<u32>(), stats(), ids()).prop_map(|(seq, ack, stats, ids)| {
-        Frame::Full(VisibleFull {
-            seq,
-            ack,
-            stats,
-            ids,
+    let levels = proptest::collection::vec(0..=MAX_LEVEL, 0..200);
+    (
+        any::<u32>(),
+        any::<u32>(),
+        stats(),
+        ids(),
+        any::<bool>(),
+        levels,
+    )
+        .prop_map(|(seq, ack, stats, ids, with_levels, mut levels)| {
+            levels.resize(ids.len(), 1);
+            Frame::Full(VisibleFull {
+                seq,
+                ack,
+                stats,
+                ids,
+                levels: with_levels.then_some(levels),
+            })
         })
-    })
 }
 
 fn delta() -> impl Strategy<Value = Frame> {
+    // Each ID: 0 added, 1 removed, 2 kept with a changed level (with levels only);
+    // and the level it gets.
     let lists = prop_oneof![
-        btree_map(0u32..256, any::<bool>(), 0..150),
-        btree_map(any::<u32>(), any::<bool>(), 0..64),
+        btree_map(0u32..256, (0u8..3, 0..=MAX_LEVEL), 0..150),
+        btree_map(any::<u32>(), (0u8..3, 0..=MAX_LEVEL), 0..64),
     ];
-    (any::<u32>(), any::<u32>(), stats(), lists).prop_map(|(seq, ack, stats, lists)| {
-        let (added, removed): (Vec<_>, Vec<_>) = lists.into_iter().partition(|&(_, add)| add);
-        Frame::Delta(VisibleDelta {
-            seq,
-            ack,
-            stats,
-            added: added.into_iter().map(|(id, _)| id).collect(),
-            removed: removed.into_iter().map(|(id, _)| id).collect(),
-        })
-    })
+    (any::<u32>(), any::<u32>(), stats(), lists, any::<bool>()).prop_map(
+        |(seq, ack, stats, lists, with_levels)| {
+            let mut d = VisibleDelta {
+                seq,
+                ack,
+                stats,
+                ..VisibleDelta::default()
+            };
+            let mut lod = LodChanges::default();
+            for (id, (what, level)) in lists {
+                match what {
+                    0 => {
+                        d.added.push(id);
+                        lod.added.push(level);
+                    }
+                    1 => d.removed.push(id),
+                    _ if with_levels => {
+                        lod.changed.push(id);
+                        lod.changed_levels.push(level);
+                    }
+                    _ => {}
+                }
+            }
+            d.lod = with_levels.then_some(lod);
+            Frame::Delta(d)
+        },
+    )
 }
 
 fn error() -> impl Strategy<Value = Frame> {
@@ -267,6 +297,25 @@ proptest! {
                 prop_assert!(!same(&other, &frame));
             }
         }
+    }
+
+    #[test]
+    fn levels_of_a_diff_applied_give_the_new_levels(
+        old in btree_map(0u32..96, 0..=MAX_LEVEL, 0..64),
+        new in btree_map(0u32..96, 0..=MAX_LEVEL, 0..64),
+    ) {
+        let (old_ids, old_levels): (Vec<u32>, Vec<u8>) = old.into_iter().unzip();
+        let (new_ids, new_levels): (Vec<u32>, Vec<u8>) = new.into_iter().unzip();
+        let (added, removed) = diff(&old_ids, &new_ids);
+        let lod = diff_levels(&old_ids, &old_levels, &new_ids, &new_levels);
+        let delta = VisibleDelta { added, removed, lod: Some(lod), ..VisibleDelta::default() };
+        let frame = Frame::Delta(delta.clone());
+        prop_assert_eq!(frame.validate(), Ok(()));
+        prop_assert_eq!(Frame::decode(&frame.encode()), Ok(frame));
+        let (mut set, mut levels) = (old_ids, old_levels);
+        apply_delta_with_levels(&mut set, &mut levels, &delta)
+            .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        prop_assert_eq!((set, levels), (new_ids, new_levels));
     }
 
     #[test]

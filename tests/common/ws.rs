@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use futures_util::StreamExt;
-use homcull_proto::frame::{Frame, PoseFrame, VisibleFull, apply_delta};
+use homcull_proto::frame::{Frame, PoseFrame, VisibleFull, apply_delta, apply_delta_with_levels};
 use homcull_proto::{CullResponse, Pose};
 use serde_json::json;
 use tokio_tungstenite::tungstenite::Message;
@@ -66,6 +66,8 @@ pub fn pose_frame(seq: u32, pose: &Pose, want_full: bool) -> Message {
 #[derive(Default)]
 pub struct Tracker {
     pub set: Vec<u32>,
+    /// The level of each ID of `set`, on a stream with levels of detail.
+    pub levels: Option<Vec<u8>>,
     pub full_bytes: usize,
     pub delta_bytes: usize,
     pub frames: usize,
@@ -81,12 +83,23 @@ impl Tracker {
                 self.full_bytes += f.encoded_len();
                 self.dropped += v.stats.dropped_poses;
                 self.set = v.ids.clone();
+                self.levels = v.levels.clone();
                 v.ack
             }
             Frame::Delta(d) => {
                 self.delta_bytes += f.encoded_len();
                 self.dropped += d.stats.dropped_poses;
-                apply_delta(&mut self.set, d).expect("deltas apply to the last set");
+                match &mut self.levels {
+                    Some(levels) => apply_delta_with_levels(&mut self.set, levels, d)
+                        .expect("deltas apply to the last set and its levels"),
+                    None => {
+                        assert!(
+                            d.lod.is_none(),
+                            "levels in a delta after a full frame without"
+                        );
+                        apply_delta(&mut self.set, d).expect("deltas apply to the last set")
+                    }
+                }
                 d.ack
             }
             f => panic!("expected a visibility frame, got {f:?}"),

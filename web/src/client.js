@@ -100,8 +100,10 @@ function defaultBaseUrl() {
  * Events (an EventTarget; each event is a CustomEvent with `detail`):
  * - `state`   {state, previous, attempt, delayMs?}: the connection state changed.
  * - `hello`   {objectCount, info}: the server's Hello (info: parsed info_json).
- * - `visible` {ack, seq, full, ids, added, removed, stats, rttMs, pose}: a new visible
- *             set (ids: strictly ascending array; added/removed: change since the last;
+ * - `visible` {ack, seq, full, ids, added, removed, changed, stats, rttMs, pose}: a new
+ *             visible set (ids: strictly ascending array; added/removed: change since
+ *             the last; changed: kept IDs whose level of detail changed, on a stream with
+ *             `lod_px`, see `visible.level(id)`;
  *             stats: the frame's stats block plus `objects`, `culled_by_frustum` and
  *             `culled_by_occlusion`, derived from the Hello and the set, see `deriveStats`).
  * - `stats`   {ack, stats, rttMs, rtt: {p50, p95, count}}: after every visible event.
@@ -116,7 +118,8 @@ export class HomcullClient extends EventTarget {
    * @param {string} [opts.url] base URL of the server (http/https; default: the page's origin)
    * @param {string} [opts.scene] scene id (default `demo`)
    * @param {object} [opts.params] stream query options: {method, threshold, deb,
-   *   lookahead_ms, hold_ms} (the last two make the stream a superset of the pose's cull)
+   *   lookahead_ms, hold_ms, lod_px} (lookahead_ms and hold_ms make the stream a superset
+   *   of the pose's cull; lod_px adds a level of detail per visible object)
    * @param {Function} [opts.WebSocket] WebSocket constructor (default: the global one)
    * @param {Function} [opts.requestAnimationFrame] frame scheduler (default: the global one, else a 16 ms timer)
    * @param {Function} [opts.fetch] used to explain a failed connection (default: the global one)
@@ -432,6 +435,8 @@ export class HomcullClient extends EventTarget {
         return this._onHello(frame);
       case "full":
       case "delta":
+      case "full_lod":
+      case "delta_lod":
         return this._onVisible(frame);
       case "error":
         return this._onError(frame);
@@ -468,9 +473,9 @@ export class HomcullClient extends EventTarget {
 
   _onVisible(frame) {
     let change;
-    const full = frame.kind === "full";
+    const full = frame.kind === "full" || frame.kind === "full_lod";
     if (full) {
-      change = this.visible.replace(frame.ids);
+      change = this.visible.replace(frame.ids, frame.levels ?? null);
       this._haveBase = true;
     } else {
       if (!this._haveBase) {
@@ -478,7 +483,11 @@ export class HomcullClient extends EventTarget {
         return;
       }
       try {
-        change = this.visible.apply(frame.added, frame.removed);
+        const lod =
+          frame.kind === "delta_lod"
+            ? { added_levels: frame.added_levels, changed: frame.changed, changed_levels: frame.changed_levels }
+            : null;
+        change = this.visible.apply(frame.added, frame.removed, lod);
       } catch (e) {
         this._haveBase = false;
         this._emit("error", { code: "bad_delta", message: `delta does not apply: ${e.message}; resynchronising`, fatal: false });
@@ -502,6 +511,7 @@ export class HomcullClient extends EventTarget {
       ids: this.visible.ids,
       added: change.added,
       removed: change.removed,
+      changed: change.changed,
       stats,
       rttMs,
       pose: sent?.pose ?? null,

@@ -1,4 +1,4 @@
-// Binary WebSocket frames of the homcull protocol (version 2), encoder and decoder.
+// Binary WebSocket frames of the homcull protocol (version 3), encoder and decoder.
 //
 // This mirrors `proto/src/frame/` exactly (read its module docs for the layout): a
 // frame is a sequence of little-endian u32 words, f32 travel as their IEEE-754 bits, a
@@ -16,6 +16,8 @@
 //   { kind: "full",  seq, ack, stats, ids }
 //   { kind: "delta", seq, ack, stats, added, removed }
 //   { kind: "error", seq, ack, code, code_name, message }
+//   { kind: "full_lod",  seq, ack, stats, ids, levels }
+//   { kind: "delta_lod", seq, ack, stats, added, removed, changed, added_levels, changed_levels }
 // where stats = { candidates, occluders_used, dropped_poses, gpu_us, total_us } (what is
 // on the wire; `deriveStats` adds objects, culled_by_frustum and culled_by_occlusion from
 // the Hello's object count and the visible set) and ID lists are plain arrays.
@@ -23,7 +25,7 @@
 /** First word of every frame: bytes 48 4D 43 4C ("HMCL") read as a little-endian u32. */
 export const MAGIC = 0x4c434d48;
 /** Version of the wire protocol this client speaks. */
-export const PROTOCOL_VERSION = 2;
+export const PROTOCOL_VERSION = 3;
 /** Words in the frame header: magic, version | kind << 16, seq, ack. */
 export const HEADER_WORDS = 4;
 /** Bytes in the frame header. */
@@ -38,10 +40,20 @@ export const MAX_DELTA_IDS = 0xffff;
 export const POSE_PAYLOAD_WORDS = 13;
 /** Bit of a Pose frame's flags asking for a full frame; the only bit defined. */
 export const POSE_FLAG_WANT_FULL = 1;
+/** Largest level of detail a frame carries. */
+export const MAX_LEVEL = 8;
 
 /** Frame kinds (the high 16 bits of header word 1). */
-export const FrameKind = Object.freeze({ HELLO: 1, POSE: 2, FULL: 3, DELTA: 4, ERROR: 5 });
-const KIND_NAMES = ["", "hello", "pose", "full", "delta", "error"];
+export const FrameKind = Object.freeze({
+  HELLO: 1,
+  POSE: 2,
+  FULL: 3,
+  DELTA: 4,
+  ERROR: 5,
+  FULL_LOD: 6,
+  DELTA_LOD: 7,
+});
+const KIND_NAMES = ["", "hello", "pose", "full", "delta", "error", "full_lod", "delta_lod"];
 
 /** Error codes carried by Error frames. */
 export const ErrorCode = Object.freeze({
@@ -119,7 +131,7 @@ const MESSAGES = {
     `bad magic ${hex(f.found)}, expected ${hex(MAGIC)} (bytes 48 4d 43 4c, "HMCL")`,
   UnsupportedVersion: (f) =>
     `unsupported protocol version ${f.found}, this build supports version ${f.supported}`,
-  UnknownKind: (f) => `unknown frame kind ${f.kind} (expected 1 to 5)`,
+  UnknownKind: (f) => `unknown frame kind ${f.kind} (expected 1 to 7)`,
   NonZeroAck: (f) => `${f.kind} frame has ack ${f.ack}, it must be 0`,
   PayloadSize: (f) => `${f.kind} payload has ${f.actual} words, its fields need ${f.expected}`,
   NotAscending: (f) =>
@@ -131,6 +143,9 @@ const MESSAGES = {
   UnknownErrorCode: (f) => `unknown error code ${f.code} (expected 1 to 6)`,
   RemovedAbsent: (f) => `delta removes id ${f.id}, which is not in the visible set`,
   AddedPresent: (f) => `delta adds id ${f.id}, which is already in the visible set`,
+  BadLevel: (f) => `level of detail ${f.level} is above the largest, ${MAX_LEVEL}`,
+  ChangedNotKept: (f) => `delta changes the level of id ${f.id}, which it also adds or removes`,
+  LevelCount: (f) => `${f.ids} ids but ${f.levels} levels of detail`,
   DeltaTooLarge: (f) =>
     `delta lists too long: ${f.added} added and ${f.removed} removed ids, a delta frame carries at most ${MAX_DELTA_IDS} per list (send a full frame)`,
 };
@@ -233,6 +248,15 @@ export function decodeFrame(input) {
     }
     return out;
   };
+  // `count` level bytes at byte offset `at`, then zero padding to the frame's end.
+  const levels = (at, count) => {
+    for (let i = at + count; i < len; i++) {
+      if (bytes[i] !== 0) throw new FrameError("NonZeroPadding", { field: "levels" });
+    }
+    const out = Array.from(bytes.subarray(at, at + count));
+    checkLevels(count, out);
+    return out;
+  };
   const stats = () => {
     const w = fixed(STATS_WORDS);
     const s = {};
@@ -265,22 +289,44 @@ export function decodeFrame(input) {
         far: f(12),
       };
     }
-    case "full": {
+    case "full":
+    case "full_lod": {
       const s = stats();
       const [count] = fixed(1);
-      const start = tail(count);
-      return { kind, seq, ack, stats: s, ids: ids("full", start, count) };
+      const lod = kind === "full_lod";
+      const start = tail(count + (lod ? Math.ceil(count / 4) : 0));
+      const out = { kind, seq, ack, stats: s, ids: ids("full", start, count) };
+      if (lod) out.levels = levels((start + count) * 4, count);
+      return out;
     }
-    case "delta": {
+    case "delta":
+    case "delta_lod": {
       const s = stats();
       const [counts] = fixed(1);
+      const lod = kind === "delta_lod";
+      const changedCount = lod ? fixed(1)[0] : 0;
       const addedCount = counts & 0xffff;
       const removedCount = counts >>> 16;
-      const start = tail(addedCount + removedCount);
+      const levelWords = lod ? Math.ceil((addedCount + changedCount) / 4) : 0;
+      const start = tail(addedCount + removedCount + changedCount + levelWords);
       const added = ids("added", start, addedCount);
       const removed = ids("removed", start + addedCount, removedCount);
       checkDisjoint(added, removed);
-      return { kind, seq, ack, stats: s, added, removed };
+      if (!lod) return { kind, seq, ack, stats: s, added, removed };
+      const changed = ids("changed", start + addedCount + removedCount, changedCount);
+      checkChanged(changed, added, removed);
+      const all = levels((start + addedCount + removedCount + changedCount) * 4, addedCount + changedCount);
+      return {
+        kind,
+        seq,
+        ack,
+        stats: s,
+        added,
+        removed,
+        changed,
+        added_levels: all.slice(0, addedCount),
+        changed_levels: all.slice(addedCount),
+      };
     }
     case "error": {
       const [code, byteLen] = fixed(2);
@@ -302,6 +348,26 @@ export function checkDisjoint(a, b) {
     if (a[i] === b[j]) throw new FrameError("IdInBothLists", { id: a[i] });
     if (a[i] < b[j]) i++;
     else j++;
+  }
+}
+
+/** Throws LevelCount unless there is one level per ID, BadLevel for one above MAX_LEVEL. */
+export function checkLevels(ids, levels) {
+  if (levels.length !== ids) throw new FrameError("LevelCount", { ids, levels: levels.length });
+  for (const level of levels) {
+    if (!Number.isInteger(level) || level < 0 || level > MAX_LEVEL) throw new FrameError("BadLevel", { level });
+  }
+}
+
+/** Throws ChangedNotKept for the first changed ID that is also added or removed. */
+export function checkChanged(changed, added, removed) {
+  for (const list of [added, removed]) {
+    try {
+      checkDisjoint(changed, list);
+    } catch (e) {
+      if (e.variant === "IdInBothLists") throw new FrameError("ChangedNotKept", { id: e.fields.id });
+      throw e;
+    }
   }
 }
 
@@ -354,17 +420,35 @@ export function encodeFrame(frame) {
       words.push(frame.ids.length);
       for (const id of frame.ids) words.push(u32("id", id));
       break;
+    case "full_lod":
+      pushStats(words, frame.stats);
+      words.push(frame.ids.length);
+      for (const id of frame.ids) words.push(u32("id", id));
+      if (frame.levels.length !== frame.ids.length) throw new TypeError("one level per visible id");
+      pushLevels(words, frame.levels);
+      break;
     case "delta":
+    case "delta_lod": {
       if (frame.added.length > MAX_DELTA_IDS || frame.removed.length > MAX_DELTA_IDS) {
         throw new TypeError(
           `a delta frame carries at most ${MAX_DELTA_IDS} ids per list, got ${frame.added.length} added and ${frame.removed.length} removed: send a full frame`,
         );
       }
+      const lod = frame.kind === "delta_lod";
       pushStats(words, frame.stats);
       words.push((frame.added.length | (frame.removed.length << 16)) >>> 0);
+      if (lod) words.push(frame.changed.length);
       for (const id of frame.added) words.push(u32("id", id));
       for (const id of frame.removed) words.push(u32("id", id));
+      if (lod) {
+        if (frame.added_levels.length !== frame.added.length || frame.changed_levels.length !== frame.changed.length) {
+          throw new TypeError("one level per added and per changed id");
+        }
+        for (const id of frame.changed) words.push(u32("id", id));
+        pushLevels(words, [...frame.added_levels, ...frame.changed_levels]);
+      }
       break;
+    }
     case "error":
       textBytes = utf8Encoder.encode(String(frame.message));
       words.push(u32("code", frame.code), textBytes.length);
@@ -396,6 +480,15 @@ function num(name, v) {
   return v;
 }
 
+// Level bytes, four to a little-endian word, the last zero-padded.
+function pushLevels(words, levels) {
+  for (let i = 0; i < levels.length; i += 4) {
+    let w = 0;
+    for (let k = 0; k < 4 && i + k < levels.length; k++) w |= (levels[i + k] & 0xff) << (8 * k);
+    words.push(w >>> 0);
+  }
+}
+
 function pushStats(words, stats = {}) {
   for (const name of STATS_FIELDS) words.push(u32(`stats.${name}`, stats[name] ?? 0));
 }
@@ -418,11 +511,18 @@ export function validateFrame(frame) {
     case "full":
       payload = STATS_WORDS + 1 + frame.ids.length;
       break;
+    case "full_lod":
+      payload = STATS_WORDS + 1 + frame.ids.length + Math.ceil(frame.levels.length / 4);
+      break;
     case "delta":
+    case "delta_lod":
       if (frame.added.length > MAX_DELTA_IDS || frame.removed.length > MAX_DELTA_IDS) {
         throw new FrameError("DeltaTooLarge", { added: frame.added.length, removed: frame.removed.length });
       }
       payload = STATS_WORDS + 1 + frame.added.length + frame.removed.length;
+      if (frame.kind === "delta_lod") {
+        payload += 1 + frame.changed.length + Math.ceil((frame.added.length + frame.changed.length) / 4);
+      }
       break;
     case "error":
       payload = 2 + Math.ceil(utf8Encoder.encode(frame.message).length / 4);
@@ -432,11 +532,20 @@ export function validateFrame(frame) {
   }
   const len = (HEADER_WORDS + payload) * 4;
   if (len > MAX_FRAME_BYTES) throw new FrameError("TooLong", { len });
-  if (frame.kind === "full") checkAscending("full", frame.ids);
-  if (frame.kind === "delta") {
+  if (frame.kind === "full_lod") checkLevels(frame.ids.length, frame.levels);
+  if (frame.kind === "full" || frame.kind === "full_lod") checkAscending("full", frame.ids);
+  if (frame.kind === "delta_lod") {
+    checkLevels(frame.added.length, frame.added_levels);
+    checkLevels(frame.changed.length, frame.changed_levels);
+  }
+  if (frame.kind === "delta" || frame.kind === "delta_lod") {
     checkAscending("added", frame.added);
     checkAscending("removed", frame.removed);
     checkDisjoint(frame.added, frame.removed);
+  }
+  if (frame.kind === "delta_lod") {
+    checkAscending("changed", frame.changed);
+    checkChanged(frame.changed, frame.added, frame.removed);
   }
 }
 

@@ -8,7 +8,7 @@ import { HomcullClient, State } from "./client.js";
 import { LOCKSTEP_ENTER_MS, LOCKSTEP_LEAVE_MS, ViewLog, parseDisplayMode, useLockstep } from "./display.js";
 import { flatten, mapObjects, walkStart } from "./scene-map.js";
 import { fetchJson, loadGlb } from "./loading.js";
-import { debugMaterials, prepareMaterials } from "./materials.js";
+import { debugMaterials, levelMaterial, prepareMaterials } from "./materials.js";
 
 const EYE_HEIGHT = 1.7;
 const WALK_SPEED = 5; // m/s; Shift runs at 4x
@@ -119,7 +119,7 @@ const app = {
   latestVersion: 0,
   appliedVersion: -1,
   appliedKey: "",
-  rendered: null, // {ack, ids, stats, view, lockstep} of the last rendered frame
+  rendered: null, // {ack, ids, levels, stats, view, lockstep} of the last rendered frame
   // Display mode (display.js, `?display=auto|lockstep|predict`) and whether frames are
   // drawn in lockstep now; the views of the poses sent, until answered.
   display: parseDisplayMode(query.get("display")),
@@ -132,6 +132,8 @@ const app = {
   fps: 0,
   frameTimes: [],
   debugGroup: null,
+  tint: new Map(), // id → level of the drawn objects the debug view tints by level
+  lodSkipped: null, // triangles coarser levels would skip in the drawn set (null: no levels)
   // Debug view: the occluders the server renders for a recent pose (POST …/occluders).
   frameOccluders: new Set(),
   occludersVersion: 0,
@@ -270,9 +272,33 @@ export const SMOOTHING = { lookahead_ms: 150, hold_ms: 300 };
  */
 export const STREAM_OPTIONS = { refine: false };
 
+/**
+ * Level-of-detail thresholds the viewer asks for (pixels, largest first; `?lod_px=` sets
+ * others, `?lod_px=off` none): every visible object then comes with a level, 0 at 256
+ * pixels or more on screen, 1 from 64, 2 from 16, 3 below. The viewer draws every
+ * object at full detail, but the debug view tints objects by level and the HUD shows
+ * what a client drawing coarser levels would skip (`lodSkippedTriangles`).
+ */
+export const LOD_PX = "256,64,16";
+
+/**
+ * Triangles a client would skip drawing objects at their levels instead of in full, if
+ * each level had a quarter of the triangles of the one before (halving the detail along
+ * both screen axes): `sum over visible objects of triangles × (1 − 4^−level)`.
+ */
+export function lodSkippedTriangles(ids, levels, triangles) {
+  let skipped = 0;
+  ids.forEach((id, k) => {
+    skipped += (triangles[id] ?? 0) * (1 - 4 ** -(levels[k] ?? 0));
+  });
+  return Math.round(skipped);
+}
+
 function connect(sceneId) {
   const params = { ...STREAM_OPTIONS, ...SMOOTHING };
   for (const k of ["method", "threshold", "deb", "refine", "lookahead_ms", "hold_ms", "seen_first"]) if (query.has(k)) params[k] = query.get(k);
+  const lod = query.get("lod_px") ?? LOD_PX;
+  if (lod !== "" && lod !== "off") params.lod_px = lod;
   const client = new HomcullClient({ url: location.origin, scene: sceneId, params });
   app.client = client;
   client.addEventListener("state", (e) => {
@@ -299,7 +325,8 @@ function connect(sceneId) {
     const d = e.detail;
     const mask = new Uint8Array(app.meshesById.length);
     for (const id of d.ids) if (id < mask.length) mask[id] = 1;
-    app.latest = { ack: d.ack, ids: d.ids, stats: d.stats, mask, view: app.views.answer(d.ack) };
+    const levels = client.visible.levels ? d.ids.map((id) => client.visible.level(id)) : null;
+    app.latest = { ack: d.ack, ids: d.ids, levels, stats: d.stats, mask, view: app.views.answer(d.ack) };
     app.latestVersion += 1;
     if (d.ids.length && d.ids[d.ids.length - 1] >= mask.length) {
       showError("range", `the server sent object ID ${d.ids[d.ids.length - 1]}, beyond the ${mask.length} objects of the scene`);
@@ -510,25 +537,32 @@ function applyVisibility() {
   let count = 0;
   let tris = 0;
   const wires = app.debug ? ensureDebugGroup() : null;
+  const levelOf = new Map((latest?.levels ?? []).map((level, k) => [latest.ids[k], level]));
+  app.tint.clear();
   app.meshesById.forEach((meshes, id) => {
     const visible = app.culling ? Boolean(mask && mask[id]) : true;
     if (visible) {
       count += 1;
       tris += app.triangles[id];
     }
+    // Debug view: occluders blue, other objects white; with levels of detail, each
+    // tinted by its level (occluders in shades of blue).
+    let material = null;
+    const occluder = app.frameOccluders.has(id);
+    if (app.debug && levelOf.has(id)) {
+      material = levelMaterial(levelOf.get(id), occluder);
+      if (visible) app.tint.set(id, levelOf.get(id));
+    } else if (app.debug) material = occluder ? debugMaterials.occluder : debugMaterials.drawn;
     for (const m of meshes) {
       m.visible = visible;
-      m.material = app.debug
-        ? app.frameOccluders.has(id)
-          ? debugMaterials.occluder
-          : debugMaterials.drawn
-        : m.userData.homcullMaterial;
+      m.material = material ?? m.userData.homcullMaterial;
     }
     if (wires) for (const w of wires[id]) w.visible = !(mask && mask[id]);
   });
   if (app.debugGroup) app.debugGroup.visible = app.debug;
   app.drawnCount = count;
   app.drawnTriangles = tris;
+  app.lodSkipped = latest?.levels && app.culling ? lodSkippedTriangles(latest.ids, latest.levels, app.triangles) : null;
 }
 
 function ensureDebugGroup() {
@@ -573,6 +607,9 @@ function updateHud() {
   const total = app.objects.length;
   setHud("hud-objects-drawn", app.drawnCount, fmtInt);
   setHud("hud-triangles-drawn", app.drawnTriangles, fmtInt);
+  setHud("hud-lod-skipped", app.lodSkipped ?? "", (v) => (v === "" ? "\u2013" : fmtInt(v)));
+  $("hud-lod-skipped-pct").textContent =
+    app.lodSkipped !== null && app.drawnTriangles ? `(${((100 * app.lodSkipped) / app.drawnTriangles).toFixed(0)} % of those drawn)` : "";
   if (frame) {
     const s = frame.stats;
     const pct = (n) => (s.objects ? `(${((100 * n) / s.objects).toFixed(0)} %)` : "");
@@ -603,7 +640,11 @@ function updateHud() {
   const notes = [];
   if (!app.culling) notes.push("Culling is off: everything is drawn.");
   if (app.debug)
-    notes.push("Debug view: this pose's occluders blue, other drawn objects white, culled objects red wireframe.");
+    notes.push(
+      app.rendered?.levels
+        ? "Debug view: this pose's occluders blue, other drawn objects by level of detail (0 white, 1 yellow, 2 orange, 3+ purple; occluders lighter blue with each level), culled objects red wireframe."
+        : "Debug view: this pose's occluders blue, other drawn objects white, culled objects red wireframe.",
+    );
   const note = notes.join(" ");
   if ($("hud-note").textContent !== note) $("hud-note").textContent = note;
 }
@@ -776,7 +817,14 @@ function loop(now) {
   if (app.overview) renderOverview();
   else renderer.render(scene3, drawnCamera);
   app.rendered = app.latest
-    ? { ack: app.latest.ack, ids: app.latest.ids, stats: app.latest.stats, view: viewOf(drawnCamera), lockstep: Boolean(answered) }
+    ? {
+        ack: app.latest.ack,
+        ids: app.latest.ids,
+        levels: app.latest.levels,
+        stats: app.latest.stats,
+        view: viewOf(drawnCamera),
+        lockstep: Boolean(answered),
+      }
     : null;
 
   app.frameTimes.push(now);
@@ -836,6 +884,7 @@ function hud() {
     objectsTotal: num("hud-objects-total"),
     trianglesDrawn: num("hud-triangles-drawn"),
     trianglesTotal: num("hud-triangles-total"),
+    lodSkipped: num("hud-lod-skipped"),
     culledByFrustum: num("hud-culled-frustum"),
     culledByOcclusion: num("hud-culled-occlusion"),
     rttP50: num("hud-rtt-p50"),
@@ -870,6 +919,10 @@ window.homcull = {
   },
   /** The HUD numbers as shown. */
   hud,
+  /** {id: level} of the drawn objects the debug view tints by level of detail (occluders too). */
+  tintedLevels() {
+    return Object.fromEntries(app.tint);
+  },
   /** Sorted IDs of the meshes the debug view paints as occluders. */
   occluderIds() {
     return [...app.frameOccluders].filter((id) => app.meshesById[id]).sort((a, b) => a - b);

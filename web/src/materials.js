@@ -44,6 +44,21 @@ export const debugMaterials = {
   culled: new THREE.MeshBasicMaterial({ color: 0xe02020, wireframe: true, transparent: true, opacity: 0.4, depthTest: false }),
 };
 
+// Debug view tints of the levels of detail, level 0 (full detail) first and the last
+// colour for level 3 and coarser: drawn objects white, yellow, orange, purple; occluders
+// blue, lighter with each level.
+const LEVEL_COLORS = [0xf4f4f4, 0xf2d64b, 0xef8a2e, 0x9b59d0];
+const OCCLUDER_LEVEL_COLORS = [0x3f7fe0, 0x6fa3f0, 0x9fc4f7, 0xcfe1fb];
+const lambert = (color) => new THREE.MeshLambertMaterial({ color, flatShading: true, side: THREE.DoubleSide });
+const levelMaterials = LEVEL_COLORS.map(lambert);
+const occluderLevelMaterials = OCCLUDER_LEVEL_COLORS.map(lambert);
+
+/** The debug view's material for an object (an occluder when `occluder`) at `level`. */
+export function levelMaterial(level, occluder = false) {
+  const m = occluder ? occluderLevelMaterials : levelMaterials;
+  return m[Math.min(level, m.length - 1)];
+}
+
 /**
  * Gives every mesh its drawing material: the palette colour by object name where the
  * glTF has no material, flat-shaded clones where it has no normals, else its own; the

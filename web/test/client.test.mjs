@@ -352,7 +352,7 @@ test("protocol mismatch and fatal error frames stop the client; other errors do 
   h.last().receiveBytes(bytes);
   const e = h.of("error").at(-1);
   assert.equal(e.fatal, true);
-  assert.match(e.message, /protocol mismatch: the server speaks version 1, this client version 2/);
+  assert.match(e.message, /protocol mismatch: the server speaks version 1, this client version 3/);
   assert.equal(h.client.state, State.FAILED);
   assert.equal(h.last().closed.code, 1000);
 

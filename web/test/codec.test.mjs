@@ -24,7 +24,7 @@ import {
   encodePose,
   validateFrame,
 } from "../src/codec.js";
-import { applyDelta } from "../src/visible.js";
+import { VisibleSet, applyDelta } from "../src/visible.js";
 
 const golden = join(dirname(fileURLToPath(import.meta.url)), "..", "..", "proto", "tests", "golden");
 const manifest = JSON.parse(readFileSync(join(golden, "frames.json"), "utf8"));
@@ -57,6 +57,18 @@ function expectedFrame(entry) {
       return { ...common, stats: entry.stats, ids: entry.ids };
     case "delta":
       return { ...common, stats: entry.stats, added: entry.added, removed: entry.removed };
+    case "full_lod":
+      return { ...common, stats: entry.stats, ids: entry.ids, levels: entry.levels };
+    case "delta_lod":
+      return {
+        ...common,
+        stats: entry.stats,
+        added: entry.added,
+        removed: entry.removed,
+        changed: entry.changed,
+        added_levels: entry.added_levels,
+        changed_levels: entry.changed_levels,
+      };
     case "error":
       return { ...common, code: entry.code, code_name: entry.code_name, message: entry.message };
   }
@@ -112,7 +124,7 @@ for (const entry of manifest.frames) {
   if (entry.derived !== undefined) {
     test(`golden ${entry.file}: derived stats`, () => {
       const frame = decodeFrame(readHex(entry.file));
-      const visible = entry.kind === "full" ? entry.ids.length : entry.visible_after.length;
+      const visible = entry.ids !== undefined ? entry.ids.length : entry.visible_after.length;
       const { objects, culled_by_frustum, culled_by_occlusion } = entry.derived;
       assert.equal(culledByFrustum(frame.stats, objects), culled_by_frustum);
       assert.equal(culledByOcclusion(frame.stats, visible), culled_by_occlusion);
@@ -125,6 +137,14 @@ for (const entry of manifest.frames) {
       const base = decodeFrame(readHex(entry.base));
       const delta = decodeFrame(readHex(entry.file));
       assert.deepEqual(applyDelta(base.ids, delta.added, delta.removed), entry.visible_after);
+      if (entry.levels_after !== undefined) {
+        const set = new VisibleSet();
+        set.replace(base.ids, base.levels);
+        const change = set.apply(delta.added, delta.removed, delta);
+        assert.deepEqual(set.ids, entry.visible_after);
+        assert.deepEqual(set.ids.map((id) => set.level(id)), entry.levels_after);
+        assert.deepEqual(change.changed, entry.changed);
+      }
     });
   }
 }
@@ -148,6 +168,10 @@ function frame(kind, seq, ack, payload) {
 const stats = () => [9, 3, 0, 100, 200];
 const full = (ids) => frame(3, 1, 1, [...stats(), ids.length, ...ids]);
 const delta = (added, removed) => frame(4, 1, 1, [...stats(), added.length | (removed.length << 16), ...added, ...removed]);
+const fullLod = (ids, levelWords) => frame(6, 1, 1, [...stats(), ids.length, ...ids, ...levelWords]);
+const deltaLod = (added, removed, changed, levelWords) =>
+  frame(7, 1, 1, [...stats(), added.length | (removed.length << 16), changed.length, ...added, ...removed, ...changed, ...levelWords]);
+const levelWord = (b) => (b[0] | (b[1] << 8) | (b[2] << 16) | (b[3] << 24)) >>> 0;
 
 function textPayload(first, text, pad) {
   const b = [...(typeof text === "string" ? new TextEncoder().encode(text) : text)];
@@ -188,13 +212,13 @@ function cases() {
       "a version 1 full frame (version word 1, kind in word 2, payload length in word 5)",
       bytes([MAGIC, 1, 3, 2, 42, 9, 1234, 10, 1224, 4, 2, 1, 850, 1200, 0]),
       "UnsupportedVersion",
-      { found: 1, supported: 2 },
+      { found: 1, supported: 3 },
     ],
-    ["version 3", bytes([MAGIC, versionKind(3, 3), 0, 0]), "UnsupportedVersion", { found: 3, supported: 2 }],
-    ["version 0", bytes([MAGIC, versionKind(0, 3), 0, 0]), "UnsupportedVersion", { found: 0, supported: 2 }],
-    ["version and kind swapped", bytes([MAGIC, versionKind(3, 2), 0, 0]), "UnsupportedVersion", { found: 3, supported: 2 }],
+    ["version 4", bytes([MAGIC, versionKind(4, 3), 0, 0]), "UnsupportedVersion", { found: 4, supported: 3 }],
+    ["version 0", bytes([MAGIC, versionKind(0, 3), 0, 0]), "UnsupportedVersion", { found: 0, supported: 3 }],
+    ["version and kind swapped", bytes([MAGIC, versionKind(4, 3), 0, 0]), "UnsupportedVersion", { found: 4, supported: 3 }],
     ["kind 0", frame(0, 0, 0, []), "UnknownKind", { kind: 0 }],
-    ["kind 6", frame(6, 0, 0, []), "UnknownKind", { kind: 6 }],
+    ["kind 8", frame(8, 0, 0, []), "UnknownKind", { kind: 8 }],
     ["kind 0xffff", frame(0xffff, 0, 0, []), "UnknownKind", { kind: 0xffff }],
     ["hello with an ack", frame(1, 1, 9, textPayload(5, "{}", 0)), "NonZeroAck", { kind: "hello", ack: 9 }],
     ["pose with an ack", poseWithAck, "NonZeroAck", { kind: "pose", ack: 3 }],
@@ -270,6 +294,16 @@ function cases() {
       "NotAscending",
       { list: "removed", index: 1, prev: 6, id: 6 },
     ],
+    // lod_cases() of reject.rs: frames with levels of detail.
+    ["full_lod without its level word", fullLod([1, 2], []), "PayloadSize", { kind: "full_lod", expected: 9, actual: 8 }],
+    ["full_lod with level 9", fullLod([1, 2], [levelWord([0, 9, 0, 0])]), "BadLevel", { level: 9 }],
+    ["full_lod padding not zero", fullLod([1, 2], [levelWord([0, 1, 0, 1])]), "NonZeroPadding", { field: "levels" }],
+    ["full_lod ids not ascending", fullLod([2, 1], [0]), "NotAscending", { list: "full", index: 1, prev: 2, id: 1 }],
+    ["delta_lod one level word short", deltaLod([4], [], [7], []), "PayloadSize", { kind: "delta_lod", expected: 10, actual: 9 }],
+    ["delta_lod changed not ascending", deltaLod([], [], [7, 3], [0]), "NotAscending", { list: "changed", index: 1, prev: 7, id: 3 }],
+    ["delta_lod changes an id it adds", deltaLod([3, 7], [], [7], [0]), "ChangedNotKept", { id: 7 }],
+    ["delta_lod changes an id it removes", deltaLod([], [5], [5], [0]), "ChangedNotKept", { id: 5 }],
+    ["delta_lod with level 255", deltaLod([3], [], [], [levelWord([255, 0, 0, 0])]), "BadLevel", { level: 255 }],
     // Beyond reject.rs: UTF-8 the Rust decoder also refuses.
     ["surrogate in UTF-8 (CESU)", frame(5, 0, 0, textPayload(1, new Uint8Array([0xed, 0xa0, 0x80]), 0)), "InvalidUtf8", { field: "error message" }],
     ["overlong UTF-8", frame(5, 0, 0, textPayload(1, new Uint8Array([0xc0, 0xaf]), 0)), "InvalidUtf8", { field: "error message" }],
@@ -294,8 +328,8 @@ test("every crafted input is rejected as the Rust decoder rejects it", () => {
     seen.add(variant);
   }
   // Every decoder error variant is exercised (RemovedAbsent/AddedPresent: visible.test.mjs;
-  // DeltaTooLarge comes from validateFrame, below).
-  assert.equal(seen.size, 14);
+  // DeltaTooLarge and LevelCount come from validateFrame, below).
+  assert.equal(seen.size, 16);
 });
 
 test("error messages read like the Rust ones", () => {
@@ -304,8 +338,8 @@ test("error messages read like the Rust ones", () => {
   assert.match(new FrameError("TooShort", { len: 3 }).message, new RegExp(String(HEADER_BYTES)));
   assert.equal(new FrameError("BadFlags", { flags: 0x80000001 }).message, "pose flags 0x80000001 set bits other than bit 0 (want_full)");
   assert.equal(
-    new FrameError("UnsupportedVersion", { found: 7, supported: 2 }).message,
-    "unsupported protocol version 7, this build supports version 2",
+    new FrameError("UnsupportedVersion", { found: 7, supported: 3 }).message,
+    "unsupported protocol version 7, this build supports version 3",
   );
   assert.equal(
     new FrameError("DeltaTooLarge", { added: 65536, removed: 0 }).message,
@@ -338,6 +372,8 @@ test("encode then decode round-trips, and validate agrees with decode", () => {
     { kind: "delta", seq: 7, ack: 10, stats: { candidates: 9, occluders_used: 1, dropped_poses: 0, gpu_us: 3, total_us: 4 }, added: [1, 5, 7], removed: [2, 3] },
     { kind: "error", seq: 7, ack: 0, code: 4, code_name: "overloaded", message: "busy" },
     { kind: "pose", seq: 1, ack: 0, want_full: false, position: [1.5, -0, 3], rotation: [0, 0, 0, 1], fov_y_deg: 75, viewport: [1, 8192], near: 0.5, far: 100 },
+    { kind: "full_lod", seq: 8, ack: 11, stats: { candidates: 3, occluders_used: 1, dropped_poses: 0, gpu_us: 2, total_us: 3 }, ids: [1, 2, 9, 10, 11], levels: [8, 0, 1, 2, 3] },
+    { kind: "delta_lod", seq: 9, ack: 12, stats: { candidates: 3, occluders_used: 1, dropped_poses: 0, gpu_us: 2, total_us: 3 }, added: [4], removed: [1], changed: [2, 10], added_levels: [5], changed_levels: [1, 0] },
   ];
   for (const f of frames) {
     validateFrame(f);
@@ -351,6 +387,12 @@ test("encode then decode round-trips, and validate agrees with decode", () => {
   const badDelta = { kind: "delta", seq: 0, ack: 0, stats: {}, added: [3], removed: [3] };
   assert.throws(() => validateFrame(badDelta), { variant: "IdInBothLists", fields: { id: 3 } });
   assert.throws(() => decodeFrame(encodeFrame(badDelta)), { variant: "IdInBothLists" });
+  const fewLevels = { kind: "full_lod", seq: 0, ack: 0, stats: {}, ids: [1, 2, 3], levels: [0, 1] };
+  assert.throws(() => validateFrame(fewLevels), { variant: "LevelCount", fields: { ids: 3, levels: 2 } });
+  assert.equal(new FrameError("LevelCount", { ids: 3, levels: 2 }).message, "3 ids but 2 levels of detail");
+  assert.throws(() => encodeFrame(fewLevels), TypeError);
+  const changedAdded = { kind: "delta_lod", seq: 0, ack: 0, stats: {}, added: [4], removed: [], changed: [4], added_levels: [0], changed_levels: [1] };
+  assert.throws(() => validateFrame(changedAdded), { variant: "ChangedNotKept", fields: { id: 4 } });
   const huge = { kind: "full", seq: 0, ack: 0, stats: {}, ids: Array.from({ length: MAX_FRAME_BYTES / 4 }, (_, i) => i) };
   assert.throws(() => validateFrame(huge), { variant: "TooLong" });
 });

@@ -177,6 +177,7 @@ async function main() {
   const nods = [0, 0, 0, 5, -5];
   const steps = Array.from({ length: 20 }, (_, i) => ({ position: [i * 5, 1.7, 0], yaw: -90 + turns[i % 5], pitch: nods[i % 5] }));
   let occlusionShare = 0;
+  let lodSkippedShare = 0;
   for (const [i, step] of steps.entries()) {
     await page.evaluate(({ position, yaw, pitch }) => window.homcull.setPose(position, yaw, pitch), step);
     await page.waitForFunction(
@@ -209,10 +210,18 @@ async function main() {
     const cull = await getJson(`${base}/v1/scenes/demo/cull`, {
       method: "POST",
       headers: { "content-type": "application/json" },
-      // The viewer streams the box test alone (web/src/main.js STREAM_OPTIONS).
-      body: JSON.stringify({ pose: { position, rotation, fov_y_deg, viewport, near, far }, options: { refine: false } }),
+      // The viewer streams the box test alone (web/src/main.js STREAM_OPTIONS), with
+      // levels of detail at its default thresholds (LOD_PX).
+      body: JSON.stringify({
+        pose: { position, rotation, fov_y_deg, viewport, near, far },
+        options: { refine: false, lod: { px: [256, 64, 16] } },
+      }),
     });
     assert.deepEqual(frame.ids, cull.visible, `${where}: streamed set differs from POST /cull`);
+    assert.deepEqual(frame.levels, cull.lod, `${where}: streamed levels of detail differ from POST /cull`);
+    const skipped = Math.round(frame.ids.reduce((sum, id, k) => sum + objects[id].triangles * (1 - 4 ** -cull.lod[k]), 0));
+    assert.equal(hud.lodSkipped, skipped, `${where}: HUD triangles coarser levels would skip`);
+    lodSkippedShare += skipped / Math.max(1, frame.ids.reduce((sum, id) => sum + objects[id].triangles, 0));
     for (const k of ["objects", "candidates", "culled_by_frustum", "culled_by_occlusion", "occluders_used"]) {
       assert.equal(frame.stats[k], cull.stats[k], `${where}: stats.${k} differs from POST /cull`);
     }
@@ -252,6 +261,9 @@ async function main() {
     );
   }
   occlusionShare /= steps.length;
+  lodSkippedShare /= steps.length;
+  log(`mean share of drawn triangles coarser levels of detail would skip: ${(100 * lodSkippedShare).toFixed(1)} %`);
+  assert.ok(lodSkippedShare > 0, "small objects get coarser levels at street level");
   log(`mean share of in-frustum objects culled by occlusion: ${(100 * occlusionShare).toFixed(1)} %`);
   assert.ok(occlusionShare > 0, "occlusion culling removed something at street level");
   assert.deepEqual(consoleErrors, [], "console errors during the walk");
@@ -389,6 +401,15 @@ async function main() {
     return { shown: window.homcull.occluderIds(), server: [...body.occluders].sort((a, b) => a - b) };
   });
   assert.deepEqual(blue.shown, blue.server, "the debug view paints this pose's occluders blue");
+  // Drawn objects are tinted by their level of detail (occluders in shades of blue).
+  const tint = await page.evaluate(() => {
+    const h = window.homcull;
+    const f = h.lastFrame;
+    return { tinted: h.tintedLevels(), ids: f.ids, levels: f.levels };
+  });
+  const expectedTint = Object.fromEntries(tint.ids.map((id, k) => [id, tint.levels[k]]));
+  assert.deepEqual(tint.tinted, expectedTint, "the debug view tints drawn objects by level");
+  assert.ok(new Set(Object.values(tint.tinted)).size >= 2, `several levels tinted: ${JSON.stringify(Object.values(tint.tinted))}`);
   await page.screenshot({ path: join(ARTIFACTS, "viewer-debug.png") });
   await page.click("#overview-toggle");
   await frames(3);

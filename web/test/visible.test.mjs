@@ -42,10 +42,10 @@ test("VisibleSet keeps ids and membership in step; a failed delta changes nothin
   const v = new VisibleSet();
   assert.equal(v.size, 0);
   let change = v.replace([3, 17, 256]);
-  assert.deepEqual(change, { added: [3, 17, 256], removed: [] });
+  assert.deepEqual(change, { added: [3, 17, 256], removed: [], changed: [] });
   assert.ok(v.has(17) && !v.has(5));
   change = v.apply([5], [17]);
-  assert.deepEqual(change, { added: [5], removed: [17] });
+  assert.deepEqual(change, { added: [5], removed: [17], changed: [] });
   assert.deepEqual(v.ids, [3, 5, 256]);
   assert.ok(v.has(5) && !v.has(17));
   const ids = v.ids;
@@ -56,10 +56,38 @@ test("VisibleSet keeps ids and membership in step; a failed delta changes nothin
   assert.throws(() => v.replace([2, 1]), { variant: "NotAscending" });
   assert.deepEqual(v.ids, [3, 5, 256]);
   change = v.replace([5, 6]);
-  assert.deepEqual(change, { added: [6], removed: [3, 256] });
+  assert.deepEqual(change, { added: [6], removed: [3, 256], changed: [] });
   v.clear();
   assert.equal(v.size, 0);
   assert.ok(!v.has(5));
+});
+
+test("VisibleSet keeps each id's level of detail; bad level updates change nothing", () => {
+  const v = new VisibleSet();
+  v.replace([1, 2, 3], [0, 1, 2]);
+  assert.deepEqual([1, 2, 3].map((id) => v.level(id)), [0, 1, 2]);
+  const change = v.apply([4], [1], { added_levels: [3], changed: [2], changed_levels: [0] });
+  assert.deepEqual(change, { added: [4], removed: [1], changed: [2] });
+  assert.deepEqual(v.ids, [2, 3, 4]);
+  assert.deepEqual(v.ids.map((id) => v.level(id)), [0, 2, 3]);
+  assert.equal(v.level(1), undefined);
+  const bad = [
+    [[5], [], { added_levels: [], changed: [], changed_levels: [] }, "LevelCount"],
+    [[5], [], { added_levels: [9], changed: [], changed_levels: [] }, "BadLevel"],
+    [[], [], { added_levels: [], changed: [7], changed_levels: [1] }, "ChangedNotKept"],
+    [[], [3], { added_levels: [], changed: [3], changed_levels: [1] }, "ChangedNotKept"],
+    [[], [], { added_levels: [], changed: [4, 2], changed_levels: [1, 1] }, "NotAscending"],
+  ];
+  for (const [added, removed, lod, variant] of bad) {
+    assert.throws(() => v.apply(added, removed, lod), { variant }, variant);
+    assert.deepEqual(v.ids, [2, 3, 4]);
+    assert.deepEqual(v.ids.map((id) => v.level(id)), [0, 2, 3]);
+  }
+  // A full frame with levels reports the kept ids whose level changed.
+  assert.deepEqual(v.replace([3, 4], [2, 1]), { added: [], removed: [2], changed: [4] });
+  // Without levels, a delta with levels does not apply.
+  const plain = new VisibleSet([1]);
+  assert.throws(() => plain.apply([2], [], { added_levels: [0], changed: [], changed_levels: [] }), { variant: "LevelCount" });
 });
 
 test("diff and applyDelta agree on random sets", () => {

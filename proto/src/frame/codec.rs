@@ -10,7 +10,9 @@ impl Frame {
         match self {
             Frame::Hello(_) => FrameKind::Hello,
             Frame::Pose(_) => FrameKind::Pose,
+            Frame::Full(f) if f.levels.is_some() => FrameKind::FullLod,
             Frame::Full(_) => FrameKind::Full,
+            Frame::Delta(d) if d.lod.is_some() => FrameKind::DeltaLod,
             Frame::Delta(_) => FrameKind::Delta,
             Frame::Error(_) => FrameKind::Error,
         }
@@ -42,8 +44,20 @@ impl Frame {
         match self {
             Frame::Hello(h) => 2 + h.info_json.len().div_ceil(4),
             Frame::Pose(_) => POSE_PAYLOAD_WORDS,
-            Frame::Full(f) => STATS_WORDS + 1 + f.ids.len(),
-            Frame::Delta(d) => STATS_WORDS + 1 + d.added.len() + d.removed.len(),
+            Frame::Full(f) => {
+                let levels = f.levels.as_ref().map_or(0, |l| l.len().div_ceil(4));
+                STATS_WORDS + 1 + f.ids.len() + levels
+            }
+            Frame::Delta(d) => {
+                let ids = d.added.len() + d.removed.len();
+                match &d.lod {
+                    None => STATS_WORDS + 1 + ids,
+                    Some(l) => {
+                        let levels = (l.added.len() + l.changed_levels.len()).div_ceil(4);
+                        STATS_WORDS + 2 + ids + l.changed.len() + levels
+                    }
+                }
+            }
             Frame::Error(e) => 2 + e.message.len().div_ceil(4),
         }
     }
@@ -71,11 +85,27 @@ impl Frame {
             return Err(FrameError::TooLong { len });
         }
         match self {
-            Frame::Full(f) => check_ascending("full", &f.ids),
+            Frame::Full(f) => {
+                if let Some(levels) = &f.levels {
+                    check_levels(f.ids.len(), levels)?;
+                }
+                check_ascending("full", &f.ids)
+            }
             Frame::Delta(d) => {
+                if let Some(l) = &d.lod {
+                    check_levels(d.added.len(), &l.added)?;
+                    check_levels(l.changed.len(), &l.changed_levels)?;
+                }
                 check_ascending("added", &d.added)?;
                 check_ascending("removed", &d.removed)?;
-                check_disjoint(&d.added, &d.removed)
+                check_disjoint(&d.added, &d.removed)?;
+                match &d.lod {
+                    Some(l) => {
+                        check_ascending("changed", &l.changed)?;
+                        check_changed(&l.changed, &d.added, &d.removed)
+                    }
+                    None => Ok(()),
+                }
             }
             Frame::Hello(_) | Frame::Pose(_) | Frame::Error(_) => Ok(()),
         }
@@ -89,8 +119,9 @@ impl Frame {
     /// # Panics
     ///
     /// If a delta does not [fit](VisibleDelta::fits) (more than [`MAX_DELTA_IDS`] IDs in a
-    /// list), or a string or ID list has more than `u32::MAX` elements (the frame could
-    /// not describe it, and would be far beyond [`MAX_FRAME_BYTES`] anyway).
+    /// list), levels of detail are not one per ID they describe, or a string or ID list
+    /// has more than `u32::MAX` elements (the frame could not describe it, and would be
+    /// far beyond [`MAX_FRAME_BYTES`] anyway).
     pub fn encode(&self) -> Vec<u8> {
         let mut w = Writer(Vec::with_capacity(self.encoded_len()));
         w.word(MAGIC);
@@ -121,6 +152,10 @@ impl Frame {
                 w.words(&f.stats.to_words());
                 w.word(len_u32(f.ids.len()));
                 w.words(&f.ids);
+                if let Some(levels) = &f.levels {
+                    assert_eq!(levels.len(), f.ids.len(), "one level per visible id");
+                    w.bytes(levels);
+                }
             }
             Frame::Delta(d) => {
                 assert!(
@@ -132,8 +167,21 @@ impl Frame {
                 w.words(&d.stats.to_words());
                 // Both fit in 16 bits (checked above).
                 w.word(len_u32(d.added.len()) | (len_u32(d.removed.len()) << 16));
+                if let Some(l) = &d.lod {
+                    w.word(len_u32(l.changed.len()));
+                }
                 w.words(&d.added);
                 w.words(&d.removed);
+                if let Some(l) = &d.lod {
+                    assert_eq!(l.added.len(), d.added.len(), "one level per added id");
+                    assert_eq!(
+                        l.changed_levels.len(),
+                        l.changed.len(),
+                        "one level per changed id"
+                    );
+                    w.words(&l.changed);
+                    w.bytes(&[&l.added[..], &l.changed_levels[..]].concat());
+                }
             }
             Frame::Error(e) => {
                 w.word(e.code as u32);
@@ -221,39 +269,71 @@ impl Frame {
                     far: f(far),
                 })
             }
-            FrameKind::Full => {
+            FrameKind::Full | FrameKind::FullLod => {
                 let stats = FrameStats::from_words(p.fixed()?);
                 let [count] = p.fixed()?;
-                let ids = decode_ids("full", p.tail(u64::from(count))?)?;
+                let lod = kind == FrameKind::FullLod;
+                let count = u64::from(count);
+                let level_words = if lod { count.div_ceil(4) } else { 0 };
+                let tail = p.tail(count + level_words)?;
+                // `tail` holds exactly count + level_words words, so this fits.
+                let (ids, levels) = tail.split_at(tail.len() - level_words as usize * 4);
+                let ids = decode_ids("full", ids)?;
+                let levels = lod.then(|| decode_levels(levels, ids.len())).transpose()?;
                 Frame::Full(VisibleFull {
                     seq,
                     ack,
                     stats,
                     ids,
+                    levels,
                 })
             }
-            FrameKind::Delta => {
+            FrameKind::Delta | FrameKind::DeltaLod => {
                 let stats = FrameStats::from_words(p.fixed()?);
                 let [counts] = p.fixed()?;
-                let (added_count, removed_count) = (counts & 0xFFFF, counts >> 16);
-                let tail = p.tail(u64::from(added_count) + u64::from(removed_count))?;
-                // `tail` holds exactly added_count + removed_count words, so this fits.
-                let split = usize::try_from(added_count)
-                    .ok()
-                    .and_then(|n| n.checked_mul(4))
-                    .and_then(|at| tail.split_at_checked(at));
-                let Some((added, removed)) = split else {
-                    return Err(p.size_error(u64::from(added_count) + u64::from(removed_count)));
+                let lod = kind == FrameKind::DeltaLod;
+                let changed_count = if lod {
+                    u64::from(p.fixed::<1>()?[0])
+                } else {
+                    0
                 };
+                // Each count fits in 16 bits but `changed_count`: every sum is in u64.
+                let (added_count, removed_count) =
+                    (u64::from(counts & 0xFFFF), u64::from(counts >> 16));
+                let level_words = if lod {
+                    (added_count + changed_count).div_ceil(4)
+                } else {
+                    0
+                };
+                let ids = added_count + removed_count + changed_count;
+                let tail = p.tail(ids + level_words)?;
+                // `tail` holds exactly that many words, so every split below fits.
+                let (added, rest) = tail.split_at(added_count as usize * 4);
+                let (removed, rest) = rest.split_at(removed_count as usize * 4);
+                let (changed, levels) = rest.split_at(changed_count as usize * 4);
                 let added = decode_ids("added", added)?;
                 let removed = decode_ids("removed", removed)?;
                 check_disjoint(&added, &removed)?;
+                let lod = if lod {
+                    let changed = decode_ids("changed", changed)?;
+                    check_changed(&changed, &added, &removed)?;
+                    let mut levels = decode_levels(levels, added.len() + changed.len())?;
+                    let changed_levels = levels.split_off(added.len());
+                    Some(LodChanges {
+                        added: levels,
+                        changed,
+                        changed_levels,
+                    })
+                } else {
+                    None
+                };
                 Frame::Delta(VisibleDelta {
                     seq,
                     ack,
                     stats,
                     added,
                     removed,
+                    lod,
                 })
             }
             FrameKind::Error => {
@@ -308,6 +388,46 @@ pub(super) fn check_disjoint(a: &[u32], b: &[u32]) -> Result<(), FrameError> {
     Ok(())
 }
 
+/// `levels` one per ID (else [`FrameError::LevelCount`]), each at most [`MAX_LEVEL`].
+pub(super) fn check_levels(ids: usize, levels: &[u8]) -> Result<(), FrameError> {
+    if levels.len() != ids {
+        return Err(FrameError::LevelCount {
+            ids,
+            levels: levels.len(),
+        });
+    }
+    match levels.iter().find(|&&l| l > MAX_LEVEL) {
+        Some(&level) => Err(FrameError::BadLevel { level }),
+        None => Ok(()),
+    }
+}
+
+/// The first ID of `changed` (ascending) that is also added or removed, as an error.
+pub(super) fn check_changed(
+    changed: &[u32],
+    added: &[u32],
+    removed: &[u32],
+) -> Result<(), FrameError> {
+    for list in [added, removed] {
+        if let Err(FrameError::IdInBothLists { id }) = check_disjoint(changed, list) {
+            return Err(FrameError::ChangedNotKept { id });
+        }
+    }
+    Ok(())
+}
+
+/// `count` levels from the padded bytes of a level block: each at most [`MAX_LEVEL`],
+/// the padding zero.
+fn decode_levels(bytes: &[u8], count: usize) -> Result<Vec<u8>, FrameError> {
+    // `bytes` is the block of count.div_ceil(4) words, so it holds `count` bytes.
+    let (levels, padding) = bytes.split_at(count);
+    if padding.iter().any(|&b| b != 0) {
+        return Err(FrameError::NonZeroPadding { field: "levels" });
+    }
+    check_levels(count, levels)?;
+    Ok(levels.to_vec())
+}
+
 /// Fills `out` with the little-endian words of `bytes` (as many as both have).
 pub(super) fn fill_words(out: &mut [u32], bytes: &[u8]) {
     for (o, c) in out.iter_mut().zip(bytes.chunks_exact(4)) {
@@ -347,6 +467,12 @@ impl Writer {
         for &w in ws {
             self.word(w);
         }
+    }
+
+    /// The bytes, zero padding to a word.
+    fn bytes(&mut self, b: &[u8]) {
+        self.0.extend_from_slice(b);
+        self.0.resize(self.0.len().next_multiple_of(4), 0);
     }
 
     fn f32(&mut self, v: f32) {

@@ -1,6 +1,6 @@
 //! Deltas between visible sets: computing them on the server, applying them on clients.
 
-use super::codec::{check_ascending, check_disjoint};
+use super::codec::{check_ascending, check_changed, check_disjoint, check_levels};
 use super::*;
 
 /// Applies `delta` to the strictly ascending visible set `set`, keeping it ascending.
@@ -73,4 +73,69 @@ pub fn diff(old: &[u32], new: &[u32]) -> (Vec<u32>, Vec<u32>) {
         }
     }
     (added, removed)
+}
+
+/// The levels-of-detail part of the delta from `(old, old_levels)` to `(new,
+/// new_levels)` (sets strictly ascending, one level per ID): the levels of the IDs
+/// [`diff`] adds, and the IDs in both sets whose level changed.
+pub fn diff_levels(old: &[u32], old_levels: &[u8], new: &[u32], new_levels: &[u8]) -> LodChanges {
+    let mut lod = LodChanges::default();
+    let mut i = 0;
+    for (j, &id) in new.iter().enumerate() {
+        while old.get(i).is_some_and(|&o| o < id) {
+            i += 1;
+        }
+        let level = new_levels[j];
+        if old.get(i) == Some(&id) {
+            if old_levels[i] != level {
+                lod.changed.push(id);
+                lod.changed_levels.push(level);
+            }
+        } else {
+            lod.added.push(level);
+        }
+    }
+    lod
+}
+
+/// Applies `delta` to a visible set and its levels of detail (one per ID, in the
+/// set's order), as [`apply_delta`] does to the set: added IDs and changed ones take the
+/// levels the delta carries, the others keep theirs.
+///
+/// Fails, leaving both untouched, where [`apply_delta`] would, where the levels are not
+/// one per ID (a delta without levels adds none), or where a changed ID is not in the
+/// set or is also added or removed.
+pub fn apply_delta_with_levels(
+    set: &mut Vec<u32>,
+    levels: &mut Vec<u8>,
+    delta: &VisibleDelta,
+) -> Result<(), FrameError> {
+    let none = LodChanges::default();
+    let lod = delta.lod.as_ref().unwrap_or(&none);
+    check_levels(set.len(), levels)?;
+    check_levels(delta.added.len(), &lod.added)?;
+    check_levels(lod.changed.len(), &lod.changed_levels)?;
+    check_ascending("changed", &lod.changed)?;
+    check_changed(&lod.changed, &delta.added, &delta.removed)?;
+    if let Some(&id) = lod.changed.iter().find(|id| set.binary_search(id).is_err()) {
+        return Err(FrameError::ChangedNotKept { id });
+    }
+    let mut after = set.clone();
+    apply_delta(&mut after, delta)?;
+    let new_levels = after
+        .iter()
+        .map(|id| {
+            if let Ok(k) = delta.added.binary_search(id) {
+                lod.added[k]
+            } else if let Ok(k) = lod.changed.binary_search(id) {
+                lod.changed_levels[k]
+            } else {
+                // Kept: in the old set (apply_delta checked it).
+                levels[set.binary_search(id).unwrap_or_default()]
+            }
+        })
+        .collect();
+    *set = after;
+    *levels = new_levels;
+    Ok(())
 }

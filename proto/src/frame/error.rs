@@ -15,7 +15,7 @@ pub enum FrameError {
     BadMagic { found: u32 },
     #[error("unsupported protocol version {found}, this build supports version {supported}")]
     UnsupportedVersion { found: u32, supported: u32 },
-    #[error("unknown frame kind {kind} (expected 1 to 5)")]
+    #[error("unknown frame kind {kind} (expected 1 to 7)")]
     UnknownKind { kind: u32 },
     #[error("{kind} frame has ack {ack}, it must be 0")]
     NonZeroAck { kind: FrameKind, ack: u32 },
@@ -51,6 +51,12 @@ pub enum FrameError {
         max = MAX_DELTA_IDS
     )]
     DeltaTooLarge { added: usize, removed: usize },
+    #[error("level of detail {level} is above the largest, {max}", max = MAX_LEVEL)]
+    BadLevel { level: u8 },
+    #[error("delta changes the level of id {id}, which it also adds or removes")]
+    ChangedNotKept { id: u32 },
+    #[error("{ids} ids but {levels} levels of detail")]
+    LevelCount { ids: usize, levels: usize },
 }
 
 impl FrameError {

@@ -15,7 +15,7 @@
 //! | word | field            | meaning                                                        |
 //! |-----:|------------------|----------------------------------------------------------------|
 //! | 0    | `magic`          | [`MAGIC`] `0x4C434D48`: bytes `48 4D 43 4C`, ASCII `HMCL`       |
-//! | 1    | `version \| kind << 16` | low 16 bits: [`PROTOCOL_VERSION`] (currently 2); high 16 bits: [`FrameKind`], 1 Hello, 2 Pose, 3 Full, 4 Delta, 5 Error |
+//! | 1    | `version \| kind << 16` | low 16 bits: [`PROTOCOL_VERSION`] (currently 3); high 16 bits: [`FrameKind`], 1 Hello, 2 Pose, 3 Full, 4 Delta, 5 Error, 6 FullLod, 7 DeltaLod |
 //! | 2    | `seq`            | the sender's sequence number (see below)                      |
 //! | 3    | `ack`            | Full/Delta/Error: the pose `seq` answered, 0 if none; Hello and Pose: always 0 |
 //!
@@ -33,6 +33,8 @@
 //! | 3 Full    | server → client | stats (5 words) `[count]` `ids[count]`                                   |
 //! | 4 Delta   | server → client | stats (5 words) `[added_count \| removed_count << 16]` `added[added_count]` `removed[removed_count]` |
 //! | 5 Error   | server → client | `[code][byte_len]` message bytes (UTF-8, zero-padded to a word)          |
+//! | 6 FullLod | server → client | as Full, then `levels`: one byte per ID, zero-padded to a word          |
+//! | 7 DeltaLod | server → client | stats (5 words) `[added_count \| removed_count << 16]` `[changed_count]` `added[]` `removed[]` `changed[]`, then one byte per added ID and per changed ID, zero-padded |
 //!
 //! - **Hello**: the JSON is opaque to the codec (the server puts its `SceneInfo` and the
 //!   like there); the decoder only checks that it is UTF-8. `object_count` is also what
@@ -49,6 +51,13 @@
 //!   frame instead ([`VisibleDelta::fits`]). [`apply_delta`] applies one, [`diff`]
 //!   computes one.
 //! - **Error**: an [`ErrorCode`] and a human-readable message.
+//! - **FullLod / DeltaLod** (version 3): the same with levels of detail, sent to a
+//!   stream that asked for them (`?lod_px=`). A level is a byte, at most [`MAX_LEVEL`];
+//!   a full frame gives every ID's, a delta those of the added IDs and of `changed`:
+//!   IDs kept in the set (neither added nor removed) whose level changed, strictly
+//!   ascending. [`diff_levels`] computes that part, [`apply_delta_with_levels`] applies
+//!   it. In Rust they are [`VisibleFull::levels`] and [`VisibleDelta::lod`]; the kind
+//!   follows from whether those are `Some`.
 //!
 //! The stats block of Full and Delta is 5 `u32` words ([`FrameStats`]):
 //!
@@ -110,7 +119,7 @@
 //! use homcull_proto::frame::{apply_delta, diff, Frame, FrameStats, VisibleDelta, VisibleFull};
 //!
 //! let stats = FrameStats { candidates: 5, ..FrameStats::default() };
-//! let full = Frame::Full(VisibleFull { seq: 1, ack: 7, stats, ids: vec![2, 3, 9] });
+//! let full = Frame::Full(VisibleFull { seq: 1, ack: 7, stats, ids: vec![2, 3, 9], levels: None });
 //! let bytes = full.encode();
 //! assert_eq!(&bytes[..4], b"HMCL");
 //! assert_eq!(bytes.len(), 16 + 4 * (5 + 1 + 3));
@@ -118,7 +127,7 @@
 //!
 //! // The next answer as a delta, and the client applying it.
 //! let (added, removed) = diff(&[2, 3, 9], &[3, 4, 9]);
-//! let delta = VisibleDelta { seq: 2, ack: 8, stats, added, removed };
+//! let delta = VisibleDelta { seq: 2, ack: 8, stats, added, removed, lod: None };
 //! assert!(delta.fits());
 //! let Ok(Frame::Delta(received)) = Frame::decode(&Frame::Delta(delta).encode()) else { panic!() };
 //! let mut visible = vec![2, 3, 9];
@@ -145,7 +154,7 @@ use std::fmt;
 
 use crate::Pose;
 
-pub use delta::{apply_delta, diff};
+pub use delta::{apply_delta, apply_delta_with_levels, diff, diff_levels};
 pub use error::FrameError;
 
 /// First word of every frame: the bytes `48 4D 43 4C` (ASCII `HMCL`) read as a
@@ -175,6 +184,9 @@ pub const POSE_PAYLOAD_WORDS: usize = 13;
 /// Bit of a Pose frame's `flags` word asking for a full frame; the only bit defined.
 pub const POSE_FLAG_WANT_FULL: u32 = 1;
 
+/// Largest level of detail a frame carries (as many levels as thresholds, plus one).
+pub const MAX_LEVEL: u8 = crate::MAX_LOD_THRESHOLDS as u8;
+
 /// What a frame is (the high 16 bits of header word 1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[repr(u32)]
@@ -189,16 +201,22 @@ pub enum FrameKind {
     Delta = 4,
     /// Server → client, something went wrong.
     Error = 5,
+    /// Server → client, the whole visible set with a level of detail per object.
+    FullLod = 6,
+    /// Server → client, changes to the visible set and to levels of detail.
+    DeltaLod = 7,
 }
 
 impl FrameKind {
     /// All kinds, in wire-code order.
-    pub const ALL: [FrameKind; 5] = [
+    pub const ALL: [FrameKind; 7] = [
         FrameKind::Hello,
         FrameKind::Pose,
         FrameKind::Full,
         FrameKind::Delta,
         FrameKind::Error,
+        FrameKind::FullLod,
+        FrameKind::DeltaLod,
     ];
 
     /// The kind with wire code `code`, if any.
@@ -206,7 +224,8 @@ impl FrameKind {
         FrameKind::ALL.into_iter().find(|k| *k as u32 == code)
     }
 
-    /// Lowercase name (`hello`, `pose`, `full`, `delta`, `error`).
+    /// Lowercase name (`hello`, `pose`, `full`, `delta`, `error`, `full_lod`,
+    /// `delta_lod`).
     pub fn name(self) -> &'static str {
         match self {
             FrameKind::Hello => "hello",
@@ -214,6 +233,8 @@ impl FrameKind {
             FrameKind::Full => "full",
             FrameKind::Delta => "delta",
             FrameKind::Error => "error",
+            FrameKind::FullLod => "full_lod",
+            FrameKind::DeltaLod => "delta_lod",
         }
     }
 }
@@ -418,6 +439,9 @@ pub struct VisibleFull {
     pub stats: FrameStats,
     /// Visible object IDs, strictly ascending.
     pub ids: Vec<u32>,
+    /// With levels of detail (kind 6, [`FrameKind::FullLod`]): the level of each ID, in
+    /// the order of `ids`, each at most [`MAX_LEVEL`]. `None` is kind 3.
+    pub levels: Option<Vec<u8>>,
 }
 
 impl VisibleFull {
@@ -431,6 +455,19 @@ impl VisibleFull {
     pub fn culled_by_occlusion(&self) -> u32 {
         self.stats.culled_by_occlusion(self.ids.len())
     }
+}
+
+/// The levels of detail a [`VisibleDelta`] carries: of every added ID, and of every ID
+/// visible before and after whose level changed.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct LodChanges {
+    /// The level of each added ID, in the order of [`VisibleDelta::added`].
+    pub added: Vec<u8>,
+    /// IDs kept in the set whose level changed, strictly ascending, none of them added
+    /// or removed.
+    pub changed: Vec<u32>,
+    /// Their new levels, in the order of `changed`.
+    pub changed_levels: Vec<u8>,
 }
 
 /// Changes to the visible set since the previous Full/Delta to the same client
@@ -447,6 +484,9 @@ pub struct VisibleDelta {
     pub added: Vec<u32>,
     /// IDs that stopped being visible, strictly ascending, none of them in `added`.
     pub removed: Vec<u32>,
+    /// With levels of detail (kind 7, [`FrameKind::DeltaLod`]): the levels of the added
+    /// IDs and of the IDs kept whose level changed. `None` is kind 4.
+    pub lod: Option<LodChanges>,
 }
 
 impl VisibleDelta {

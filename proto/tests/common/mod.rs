@@ -26,10 +26,13 @@ pub fn variant(e: &FrameError) -> &'static str {
         FrameError::RemovedAbsent { .. } => "RemovedAbsent",
         FrameError::AddedPresent { .. } => "AddedPresent",
         FrameError::DeltaTooLarge { .. } => "DeltaTooLarge",
+        FrameError::BadLevel { .. } => "BadLevel",
+        FrameError::ChangedNotKept { .. } => "ChangedNotKept",
+        FrameError::LevelCount { .. } => "LevelCount",
     }
 }
 
-pub const ALL_VARIANTS: [&str; 17] = [
+pub const ALL_VARIANTS: [&str; 20] = [
     "TooShort",
     "TooLong",
     "NotWordAligned",
@@ -47,6 +50,9 @@ pub const ALL_VARIANTS: [&str; 17] = [
     "RemovedAbsent",
     "AddedPresent",
     "DeltaTooLarge",
+    "BadLevel",
+    "ChangedNotKept",
+    "LevelCount",
 ];
 
 pub fn bytes(words: &[u32]) -> Vec<u8> {
@@ -82,6 +88,27 @@ pub fn delta(added: &[u32], removed: &[u32]) -> Vec<u8> {
     p.extend_from_slice(added);
     p.extend_from_slice(removed);
     frame(4, 1, 1, &p)
+}
+
+/// A full frame with levels (kind 6): `ids`, then `level_words` as given.
+pub fn full_lod(ids: &[u32], level_words: &[u32]) -> Vec<u8> {
+    let mut p = stats().to_vec();
+    p.push(ids.len() as u32);
+    p.extend_from_slice(ids);
+    p.extend_from_slice(level_words);
+    frame(6, 1, 1, &p)
+}
+
+/// A delta with levels (kind 7): the lists, then `level_words` as given.
+pub fn delta_lod(added: &[u32], removed: &[u32], changed: &[u32], level_words: &[u32]) -> Vec<u8> {
+    let mut p = stats().to_vec();
+    p.push(added.len() as u32 | ((removed.len() as u32) << 16));
+    p.push(changed.len() as u32);
+    for list in [added, removed, changed] {
+        p.extend_from_slice(list);
+    }
+    p.extend_from_slice(level_words);
+    frame(7, 1, 1, &p)
 }
 
 /// `[a][byte_len]` and the bytes padded with `pad` bytes.

@@ -5,7 +5,7 @@
 use glam::Vec3;
 use homcull_proto::PoseMessage;
 use homcull_proto::frame::{
-    ErrorCode, ErrorFrame, Frame, FrameStats, VisibleDelta, VisibleFull, diff,
+    ErrorCode, ErrorFrame, Frame, FrameStats, VisibleDelta, VisibleFull, diff, diff_levels,
 };
 use std::time::Instant;
 
@@ -13,28 +13,41 @@ use super::Pending;
 use crate::core::camera::Camera;
 use crate::core::cull::PoseResult;
 
-/// The answer to pose `ack`: a delta from `last_set` (the set last sent to this client) to
-/// `visible`, or a full frame when `want_full` or when the change does not fit in a delta
+/// A visible set and, on a stream that asked for them, the level of detail of each ID.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Sent<'a> {
+    pub ids: &'a [u32],
+    pub levels: Option<&'a [u8]>,
+}
+
+/// The answer to pose `ack`: a delta from `last` (what was last sent to this client) to
+/// `now`, or a full frame when `want_full` or when the change does not fit in a delta
 /// frame (more than [`MAX_DELTA_IDS`](homcull_proto::frame::MAX_DELTA_IDS) IDs added or
-/// removed).
+/// removed). With levels, the frame carries them (a delta: those of the added IDs and
+/// of the kept ones whose level changed).
 pub(super) fn visibility_frame(
     seq: u32,
     ack: u32,
     stats: FrameStats,
-    last_set: &[u32],
-    visible: &[u32],
+    last: Sent<'_>,
+    now: Sent<'_>,
     want_full: bool,
 ) -> Frame {
     if !want_full {
-        let (added, removed) = diff(last_set, visible);
+        let (added, removed) = diff(last.ids, now.ids);
+        let lod = now
+            .levels
+            .map(|levels| diff_levels(last.ids, last.levels.unwrap_or_default(), now.ids, levels));
         let delta = VisibleDelta {
             seq,
             ack,
             stats,
             added,
             removed,
+            lod,
         };
-        if delta.fits() {
+        // A delta with levels needs the last frame's levels (a stream keeps its options).
+        if delta.fits() && (now.levels.is_none() || last.levels.is_some()) {
             return Frame::Delta(delta);
         }
     }
@@ -42,7 +55,8 @@ pub(super) fn visibility_frame(
         seq,
         ack,
         stats,
-        ids: visible.to_vec(),
+        ids: now.ids.to_vec(),
+        levels: now.levels.map(<[u8]>::to_vec),
     })
 }
 
@@ -114,6 +128,37 @@ mod tests {
 
     use super::*;
 
+    fn ids(ids: &[u32]) -> Sent<'_> {
+        Sent { ids, levels: None }
+    }
+
+    #[test]
+    fn with_levels_a_delta_carries_those_of_added_and_changed_ids() {
+        let stats = FrameStats::default();
+        let last = Sent {
+            ids: &[1, 2, 3],
+            levels: Some(&[0, 1, 2]),
+        };
+        let now = Sent {
+            ids: &[2, 3, 4],
+            levels: Some(&[1, 0, 3]),
+        };
+        match visibility_frame(1, 1, stats, last, now, false) {
+            Frame::Delta(d) => {
+                assert_eq!((d.added, d.removed), (vec![4], vec![1]));
+                let lod = d.lod.unwrap();
+                assert_eq!(
+                    (lod.added, lod.changed, lod.changed_levels),
+                    (vec![3], vec![3], vec![0])
+                );
+            }
+            f => panic!("expected a delta, got {:?}", f.kind()),
+        }
+        // Without the last frame's levels (none sent yet), a full frame.
+        let first = visibility_frame(2, 2, stats, ids(&[]), now, false);
+        assert!(matches!(first, Frame::Full(f) if f.levels.as_deref() == Some(&[1, 0, 3][..])));
+    }
+
     #[test]
     fn a_change_too_big_for_a_delta_goes_out_as_a_full_frame() {
         let stats = FrameStats::default();
@@ -122,7 +167,7 @@ mod tests {
         let fits: Vec<u32> = (1..max + 1).collect();
         // 65535 removed (and 65535 added) still fit in one delta...
         let shifted: Vec<u32> = (max + 1..2 * max + 1).collect();
-        match visibility_frame(1, 1, stats, &fits, &shifted, false) {
+        match visibility_frame(1, 1, stats, ids(&fits), ids(&shifted), false) {
             Frame::Delta(d) => {
                 assert_eq!(
                     (d.added.len(), d.removed.len()),
@@ -136,7 +181,7 @@ mod tests {
         }
         // ...65536 do not, in either list.
         for (old, new) in [(&many, &Vec::new()), (&Vec::new(), &many)] {
-            match visibility_frame(2, 2, stats, old, new, false) {
+            match visibility_frame(2, 2, stats, ids(old), ids(new), false) {
                 Frame::Full(f) => {
                     assert_eq!(&f.ids, new);
                     assert_eq!(Frame::Full(f).validate(), Ok(()));
@@ -146,11 +191,11 @@ mod tests {
         }
         // Small changes are deltas unless a full frame is asked for.
         assert!(matches!(
-            visibility_frame(3, 3, stats, &[1, 2], &[2, 3], false),
+            visibility_frame(3, 3, stats, ids(&[1, 2]), ids(&[2, 3]), false),
             Frame::Delta(d) if d.added == [3] && d.removed == [1]
         ));
         assert!(matches!(
-            visibility_frame(4, 4, stats, &[1, 2], &[2, 3], true),
+            visibility_frame(4, 4, stats, ids(&[1, 2]), ids(&[2, 3]), true),
             Frame::Full(f) if f.ids == [2, 3]
         ));
     }

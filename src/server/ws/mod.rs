@@ -40,7 +40,7 @@ use homcull_proto::{CullOptions, DebVariant, LodThresholds, Method, PROTOCOL_VER
 use serde::Deserialize;
 use tokio::sync::{Mutex, Notify, mpsc};
 
-use frames::{frame_stats, parse_binary, parse_text, visibility_frame};
+use frames::{Sent, frame_stats, parse_binary, parse_text, visibility_frame};
 use liveness::{Liveness, Tick};
 
 use super::error::ApiError;
@@ -50,6 +50,7 @@ use super::state::{AppState, SceneEntry, WsClientSlot};
 use crate::core::camera::Camera;
 use crate::core::cull::PoseResult;
 use crate::core::geom::Aabb;
+use crate::core::lod;
 
 /// Largest message a client may send (a pose frame is 68 bytes).
 const MAX_CLIENT_MESSAGE: usize = 64 << 10;
@@ -293,6 +294,8 @@ async fn client(
     let min_interval = Duration::from_secs_f64(1.0 / state.config.ws_max_fps.max(0.1));
     let mut last_started: Option<Instant> = None;
     let mut last_set: Vec<u32> = Vec::new();
+    // With `options.lod`: the level of each ID of `last_set`, as last sent.
+    let mut last_levels: Option<Vec<u8>> = None;
     let mut held = HeldSet::new(Duration::from_millis(smoothing.hold_ms.into()));
     let mut since_full = u32::MAX;
     let mut shutdown = state.shutdown.clone();
@@ -378,7 +381,20 @@ async fn client(
             Ok(r) => {
                 let stats = frame_stats(&r, mailbox.dropped.swap(0, Ordering::Relaxed), started);
                 let want_full = p.want_full || since_full >= state.config.full_every;
-                let frame = visibility_frame(seq, p.seq, stats, &last_set, &r.visible, want_full);
+                let levels = options.lod.map(|t| {
+                    let eyes = std::slice::from_ref(&p.cam);
+                    lod::levels(eyes, &r.visible, |id| scene.object_bounds(id), &t)
+                });
+                let last = Sent {
+                    ids: &last_set,
+                    levels: last_levels.as_deref(),
+                };
+                let now = Sent {
+                    ids: &r.visible,
+                    levels: levels.as_deref(),
+                };
+                let frame = visibility_frame(seq, p.seq, stats, last, now, want_full);
+                last_levels = levels;
                 if matches!(frame, Frame::Full(_)) {
                     since_full = 0;
                 } else {
