@@ -11,10 +11,11 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use homcull::core::camera::Camera;
+use homcull::core::cull::union;
 use homcull::core::engine::Engine;
 use homcull::core::occluders::OccluderParams;
 use homcull::eval::loadgen::street_pose;
-use homcull::server::motion::{HeldSet, union};
+use homcull::server::motion::HeldSet;
 use homcull_proto::CullOptions;
 use homcull_proto::frame::{Frame, VisibleDelta, VisibleFull, diff};
 

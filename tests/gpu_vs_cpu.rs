@@ -24,6 +24,16 @@ fn demo_cams(w: u32, h: u32) -> Vec<Camera> {
     ]
     .iter()
     .map(|&(e, t)| look_at(e, t, w, h))
+    // And the converged (off-axis) eyes of a stereo pose: frusta shifted sideways.
+    .chain({
+        let mut pose = homcull_proto::Pose::looking_at([0.0, 1.7, 3.0], [40.0, 1.7, 10.0]);
+        pose.viewport = [w, h];
+        pose.stereo = Some(homcull_proto::Stereo {
+            ipd_m: 0.5,
+            convergence_m: Some(5.0),
+        });
+        homcull::core::camera::stereo::eyes(&pose).unwrap()
+    })
     .collect()
 }
 

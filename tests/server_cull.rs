@@ -257,3 +257,84 @@ async fn answers_carry_level_of_detail_hints_when_asked() {
     }
     srv.stop().await;
 }
+
+/// A stereo pose answers with every object either eye may see: the union of the
+/// answers for its two eyes' own poses, with a level per object from the eye that sees
+/// it larger; bad stereo parameters are an `invalid_pose` naming the field, in a batch
+/// with the pose's index.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stereo_pose_answers_for_both_eyes() {
+    use homcull::core::camera::stereo::eye_pose;
+    use homcull_proto::Stereo;
+
+    let srv = TestServer::start(|_| {}).await;
+    let http = reqwest::Client::new();
+    let cull = srv.url("/v1/scenes/demo/cull");
+    let options = json!({"lod": {"px": [64, 16, 4]}});
+    for pose in street_walk(4, [640, 360]) {
+        let stereo = homcull_proto::Pose {
+            stereo: Some(Stereo {
+                ipd_m: 0.5,
+                convergence_m: None,
+            }),
+            ..pose.clone()
+        };
+        let both: CullResponse =
+            post_json(&http, &cull, &json!({"pose": stereo, "options": options})).await;
+        let mut union = std::collections::BTreeMap::new();
+        for offset in [-0.25, 0.25] {
+            let eye = eye_pose(&pose, offset);
+            let r: CullResponse =
+                post_json(&http, &cull, &json!({"pose": eye, "options": options})).await;
+            for (id, level) in r.visible.iter().zip(r.lod.unwrap()) {
+                // The finer level (the larger projection) of the two eyes.
+                let l = union.entry(*id).or_insert(level);
+                *l = (*l).min(level);
+            }
+        }
+        let (ids, levels): (Vec<u32>, Vec<u8>) = union.into_iter().unzip();
+        assert_eq!(both.visible, ids);
+        assert_eq!(both.lod, Some(levels));
+        let s = &both.stats;
+        assert_eq!(s.candidates + s.culled_by_frustum, s.objects);
+        assert_eq!(
+            both.visible.len() as u32 + s.culled_by_occlusion,
+            s.candidates
+        );
+        // The same in a batch, beside a mono pose.
+        let batch: BatchResponse = post_json(
+            &http,
+            srv.url("/v1/scenes/demo/cull/batch"),
+            &json!({"poses": [pose, stereo], "options": options}),
+        )
+        .await;
+        assert_eq!(batch.results[1].visible, both.visible);
+        assert!(batch.results[0].visible.len() <= both.visible.len());
+    }
+    let pose = &street_walk(1, [640, 360])[0];
+    for (stereo, field) in [
+        (json!({"ipd_m": 0.0}), "ipd_m"),
+        (
+            json!({"ipd_m": 0.064, "convergence_m": 0.01}),
+            "convergence_m",
+        ),
+    ] {
+        let mut bad = serde_json::to_value(pose).unwrap();
+        bad["stereo"] = stereo;
+        let r = http
+            .post(srv.url("/v1/scenes/demo/cull/batch"))
+            .json(&json!({"poses": [pose, bad]}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 400);
+        let body: homcull_proto::ErrorBody = r.json().await.unwrap();
+        assert_eq!(body.error.code, "invalid_pose");
+        assert!(
+            body.error.message.contains("pose 1") && body.error.message.contains(field),
+            "{}",
+            body.error.message
+        );
+    }
+    srv.stop().await;
+}

@@ -60,6 +60,27 @@ pub struct Pose {
     /// Far plane distance in metres.
     #[serde(default = "default_far")]
     pub far: f32,
+    /// Both eyes of a stereo display in one query: the answer holds every object either
+    /// eye may see (see [`Stereo`]). Absent: one eye at `position`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stereo: Option<Stereo>,
+}
+
+/// Two eyes a few centimetres apart: `position` is the point between them, the eyes sit
+/// `ipd_m / 2` to its left and right along the camera's right axis, and both look along
+/// the pose's direction (parallel optical axes). With `convergence_m` each eye's frustum
+/// is shifted sideways (off-axis) so that the two images coincide at that view depth,
+/// the zero-parallax plane; without it the frusta are symmetric (zero parallax at
+/// infinity). Both eyes use the pose's field of view, viewport, near and far.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Stereo {
+    /// Distance between the eyes in metres, in (0, 1].
+    pub ipd_m: f32,
+    /// View depth of the zero-parallax plane in metres, beyond `near`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub convergence_m: Option<f32>,
 }
 
 fn default_fov() -> f32 {
@@ -87,6 +108,7 @@ impl Pose {
             viewport: default_viewport(),
             near: default_near(),
             far: default_far(),
+            stereo: None,
         }
     }
 }

@@ -16,11 +16,11 @@ use std::collections::BTreeSet;
 use std::path::PathBuf;
 use std::sync::Once;
 
-use homcull_proto::PROTOCOL_VERSION;
 use homcull_proto::frame::{
     ErrorCode, ErrorFrame, Frame, FrameStats, HEADER_WORDS, Hello, LodChanges, MAGIC, PoseFrame,
     VisibleDelta, VisibleFull, apply_delta, apply_delta_with_levels, diff_levels,
 };
+use homcull_proto::{PROTOCOL_VERSION, Stereo};
 use serde_json::{Value, json};
 
 fn golden_dir() -> PathBuf {
@@ -59,6 +59,24 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                 viewport: [960, 540],
                 near: 0.125,
                 far: 5000.0,
+                stereo: None,
+            }),
+        ),
+        (
+            "pose_stereo",
+            Frame::Pose(PoseFrame {
+                seq: 49,
+                want_full: false,
+                position: [1.5, -2.0, 0.25],
+                rotation: [0.5, -0.5, 0.5, 0.5],
+                fov_y_deg: 90.0,
+                viewport: [1280, 720],
+                near: 0.125,
+                far: 5000.0,
+                stereo: Some(Stereo {
+                    ipd_m: 0.0625,
+                    convergence_m: Some(2.5),
+                }),
             }),
         ),
         (
@@ -226,15 +244,21 @@ fn frame_json(name: &str, frame: &Frame) -> Value {
             "info_json": h.info_json,
             "info_json_byte_length": h.info_json.len(),
         }),
-        Frame::Pose(p) => json!({
-            "want_full": p.want_full,
-            "position": p.position,
-            "rotation": p.rotation,
-            "fov_y_deg": p.fov_y_deg,
-            "viewport": p.viewport,
-            "near": p.near,
-            "far": p.far,
-        }),
+        Frame::Pose(p) => {
+            let mut v = json!({
+                "want_full": p.want_full,
+                "position": p.position,
+                "rotation": p.rotation,
+                "fov_y_deg": p.fov_y_deg,
+                "viewport": p.viewport,
+                "near": p.near,
+                "far": p.far,
+            });
+            if let Some(s) = p.stereo {
+                v["stereo"] = json!(s);
+            }
+            v
+        }
         Frame::Full(f) => {
             let mut v = json!({
                 "stats": stats_json(&f.stats),
@@ -393,7 +417,12 @@ fn frames_json_describes_the_goldens() {
                     .iter()
                     .chain(&p.rotation)
                     .chain([&p.fov_y_deg, &p.near, &p.far]);
-            for &x in floats {
+            let stereo = p
+                .stereo
+                .iter()
+                .flat_map(|s| [s.ipd_m, s.convergence_m.unwrap_or(0.0)])
+                .collect::<Vec<_>>();
+            for &x in floats.chain(&stereo) {
                 let parsed: f64 = serde_json::to_string(&x).unwrap().parse().unwrap();
                 assert_eq!(parsed, f64::from(x), "{name}: {x} does not print exactly");
             }

@@ -292,7 +292,16 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             delta(&[1, 2, 8], &[0, 8]),
             E::IdInBothLists { id: 8 },
         ),
-        ("pose flag bit 1", pose(2), E::BadFlags { flags: 2 }),
+        ("pose flag bit 2", pose(4), E::BadFlags { flags: 4 }),
+        (
+            "stereo pose without its two words",
+            pose(2),
+            E::PayloadSize {
+                kind: FrameKind::Pose,
+                expected: 15,
+                actual: 13,
+            },
+        ),
         (
             "pose flag bit 31",
             pose(0x8000_0001),

@@ -6,7 +6,7 @@ use homcull_proto::frame::{
     ErrorCode, ErrorFrame, Frame, FrameStats, HEADER_WORDS, Hello, LodChanges, MAGIC, MAX_LEVEL,
     PoseFrame, VisibleDelta, VisibleFull, apply_delta, apply_delta_with_levels, diff, diff_levels,
 };
-use homcull_proto::{PROTOCOL_VERSION, Pose};
+use homcull_proto::{PROTOCOL_VERSION, Pose, Stereo};
 use proptest::collection::{btree_map, btree_set, vec};
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
@@ -63,9 +63,14 @@ fn pose() -> impl Strategy<Value = Frame> {
         any::<[u32; 2]>(),
         any_f32(),
         any_f32(),
+        // A stereo pose: ipd and convergence (the word 0 means none, so +0.0 is never one).
+        proptest::option::of((
+            any_f32(),
+            proptest::option::of(any_f32().prop_filter("0 is none", |c| c.to_bits() != 0)),
+        )),
     )
         .prop_map(
-            |(seq, want_full, position, rotation, fov_y_deg, viewport, near, far)| {
+            |(seq, want_full, position, rotation, fov_y_deg, viewport, near, far, stereo)| {
                 Frame::Pose(PoseFrame {
                     seq,
                     want_full,
@@ -75,6 +80,10 @@ fn pose() -> impl Strategy<Value = Frame> {
                     viewport,
                     near,
                     far,
+                    stereo: stereo.map(|(ipd_m, convergence_m)| Stereo {
+                        ipd_m,
+                        convergence_m,
+                    }),
                 })
             },
         )
@@ -160,7 +169,9 @@ fn any_frame() -> impl Strategy<Value = Frame> {
 }
 
 /// The pose's fields with floats as bits, so NaN compares equal to itself.
-fn pose_bits(p: &PoseFrame) -> (u32, bool, Vec<u32>, [u32; 2]) {
+type PoseBits = (u32, bool, Vec<u32>, [u32; 2], Option<(u32, Option<u32>)>);
+
+fn pose_bits(p: &PoseFrame) -> PoseBits {
     let floats = p
         .position
         .iter()
@@ -168,7 +179,10 @@ fn pose_bits(p: &PoseFrame) -> (u32, bool, Vec<u32>, [u32; 2]) {
         .chain([&p.fov_y_deg, &p.near, &p.far])
         .map(|x| x.to_bits())
         .collect();
-    (p.seq, p.want_full, floats, p.viewport)
+    let stereo = p
+        .stereo
+        .map(|s| (s.ipd_m.to_bits(), s.convergence_m.map(f32::to_bits)));
+    (p.seq, p.want_full, floats, p.viewport, stereo)
 }
 
 /// Equality with floats compared bit for bit.

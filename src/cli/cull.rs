@@ -5,13 +5,14 @@ use homcull_proto::{CullOptions, CullResponse, LodThresholds, Pose};
 
 use super::args::CullArgs;
 use super::{load_scene, open_backend};
-use crate::core::camera::Camera;
+use crate::core::camera::stereo;
+use crate::core::cull::PoseResult;
 use crate::core::lod;
 use crate::core::resident::{Residency, ResidentScene};
 
 pub fn run(a: CullArgs) -> Result<()> {
     let pose: Pose = serde_json::from_str(&a.pose).context("parsing --pose")?;
-    let cam = Camera::new(&pose)?;
+    let eyes = stereo::eyes(&pose)?;
     let options = CullOptions {
         method: a.method,
         threshold: a.params.threshold,
@@ -31,18 +32,11 @@ pub fn run(a: CullArgs) -> Result<()> {
         open_backend(&a.backend)?,
     );
     let settings = resident.engine.settings(options);
-    let r = resident
-        .engine
-        .cull(std::slice::from_ref(&cam), &settings)?
-        .remove(0);
+    let results = resident.engine.cull(&eyes, &settings)?;
+    let r = PoseResult::union_of(results).context("a pose has at least one eye")?;
     let lod = options.lod.map(|t| {
         let objects = &resident.engine.prepared.scene.objects;
-        lod::levels(
-            std::slice::from_ref(&cam),
-            &r.visible,
-            |id| objects[id as usize].aabb,
-            &t,
-        )
+        lod::levels(&eyes, &r.visible, |id| objects[id as usize].aabb, &t)
     });
     let out = CullResponse {
         visible: r.visible,

@@ -17,6 +17,8 @@ use std::time::{Duration, Instant};
 use glam::Vec3;
 use homcull_proto::Pose;
 
+use crate::core::cull::union;
+
 /// Longest lookahead a client may ask for, ms.
 pub const MAX_LOOKAHEAD_MS: u32 = 1000;
 /// Longest hold a client may ask for, ms.
@@ -72,32 +74,6 @@ pub fn moved(pose: &Pose, offset: Vec3) -> Pose {
         look_at: pose.look_at.map(shift),
         ..pose.clone()
     }
-}
-
-/// Sorted union of two ascending ID lists.
-pub fn union(a: &[u32], b: &[u32]) -> Vec<u32> {
-    let mut out = Vec::with_capacity(a.len().max(b.len()));
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        match a[i].cmp(&b[j]) {
-            std::cmp::Ordering::Less => {
-                out.push(a[i]);
-                i += 1;
-            }
-            std::cmp::Ordering::Greater => {
-                out.push(b[j]);
-                j += 1;
-            }
-            std::cmp::Ordering::Equal => {
-                out.push(a[i]);
-                i += 1;
-                j += 1;
-            }
-        }
-    }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
-    out
 }
 
 /// Keeps each object in the streamed set for `hold` after the cull last returned it.
@@ -156,13 +132,6 @@ impl HeldSet {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn union_merges_sorted_lists() {
-        assert_eq!(union(&[1, 3, 5], &[2, 3, 6, 7]), [1, 2, 3, 5, 6, 7]);
-        assert_eq!(union(&[], &[4]), [4]);
-        assert_eq!(union(&[4], &[]), [4]);
-    }
 
     #[test]
     fn velocity_is_the_mean_over_the_window_and_ignores_jumps() {

@@ -20,7 +20,7 @@ use serde::Deserialize;
 
 use super::error::ApiError;
 use super::state::{AppState, GlbSource, SceneEntry};
-use crate::core::camera::Camera;
+use crate::core::camera::{Camera, stereo};
 use crate::core::cull::PoseResult;
 use crate::core::lod;
 use crate::core::scene::load_glb_bytes_within;
@@ -313,17 +313,17 @@ fn within_work_budget(state: &AppState, cams: &[Camera]) -> Result<(), ApiError>
     Ok(())
 }
 
-/// The answer to the pose `cam`, with a level per visible object when `lod` asks.
+/// The answer to a pose seen by `eyes` (one camera, or a stereo pose's two) from the
+/// results of its eyes: their union, with a level per visible object (the largest
+/// projection over the eyes) when `lod` asks.
 fn response(
-    r: PoseResult,
-    cam: &Camera,
+    results: Vec<PoseResult>,
+    eyes: &[Camera],
     scene: &SceneEntry,
     lod: Option<LodThresholds>,
 ) -> CullResponse {
-    let lod = lod.map(|t| {
-        let eyes = std::slice::from_ref(cam);
-        lod::levels(eyes, &r.visible, |id| scene.object_bounds(id), &t)
-    });
+    let r = PoseResult::union_of(results).expect("one result per eye");
+    let lod = lod.map(|t| lod::levels(eyes, &r.visible, |id| scene.object_bounds(id), &t));
     CullResponse {
         visible: r.visible,
         lod,
@@ -343,15 +343,14 @@ pub async fn cull(
 ) -> Result<Json<CullResponse>, ApiError> {
     let req: CullRequest = ApiError::parse_json(&body.map_err(body_error)?)?;
     req.options.validate()?;
-    let cam = Camera::new(&req.pose)?;
-    within_work_budget(&state, std::slice::from_ref(&cam))?;
+    let eyes = stereo::eyes(&req.pose)?;
+    within_work_budget(&state, &eyes)?;
     let scene = state.scene(&id)?;
-    let mut out = state
+    let out = state
         .worker
-        .cull(scene.engine.clone(), vec![cam.clone()], req.options)
+        .cull(scene.engine.clone(), eyes.clone(), req.options)
         .await?;
-    let lod = req.options.lod;
-    Ok(Json(response(out.remove(0), &cam, &scene, lod)))
+    Ok(Json(response(out, &eyes, &scene, req.options.lod)))
 }
 
 /// Culls many poses in one GPU submission; results in pose order.
@@ -374,30 +373,31 @@ pub async fn cull_batch(
         ));
     }
     req.options.validate()?;
-    let cams = req
+    let eyes = req
         .poses
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            Camera::new(p)
+            stereo::eyes(p)
                 .map_err(|e| ApiError::bad_request("invalid_pose", format!("pose {i}: {e}")))
         })
         .collect::<Result<Vec<_>, _>>()?;
+    let cams: Vec<Camera> = eyes.iter().flatten().cloned().collect();
     within_work_budget(&state, &cams)?;
     let scene = state.scene(&id)?;
     if cams.is_empty() {
         return Ok(Json(BatchResponse { results: vec![] }));
     }
-    let out = state
+    let mut out = state
         .worker
-        .cull(scene.engine.clone(), cams.clone(), req.options)
-        .await?;
+        .cull(scene.engine.clone(), cams, req.options)
+        .await?
+        .into_iter();
     let lod = req.options.lod;
     Ok(Json(BatchResponse {
-        results: out
-            .into_iter()
-            .zip(&cams)
-            .map(|(r, cam)| response(r, cam, &scene, lod))
+        results: eyes
+            .iter()
+            .map(|e| response(out.by_ref().take(e.len()).collect(), e, &scene, lod))
             .collect(),
     }))
 }

@@ -12,7 +12,7 @@
 // Frames are plain objects with the field names of the Rust structs:
 //   { kind: "hello", seq, ack: 0, object_count, info_json }
 //   { kind: "pose",  seq, ack: 0, want_full, position: [x,y,z], rotation: [x,y,z,w],
-//     fov_y_deg, viewport: [w,h], near, far }
+//     fov_y_deg, viewport: [w,h], near, far, stereo? }  (stereo: {ipd_m, convergence_m?})
 //   { kind: "full",  seq, ack, stats, ids }
 //   { kind: "delta", seq, ack, stats, added, removed }
 //   { kind: "error", seq, ack, code, code_name, message }
@@ -38,8 +38,10 @@ export const STATS_WORDS = 5;
 export const MAX_DELTA_IDS = 0xffff;
 /** Words in a Pose payload. */
 export const POSE_PAYLOAD_WORDS = 13;
-/** Bit of a Pose frame's flags asking for a full frame; the only bit defined. */
+/** Bit of a Pose frame's flags asking for a full frame. */
 export const POSE_FLAG_WANT_FULL = 1;
+/** Bit of a Pose frame's flags making it a stereo pose: `ipd_m`, `convergence_m` follow. */
+export const POSE_FLAG_STEREO = 2;
 /** Largest level of detail a frame carries. */
 export const MAX_LEVEL = 8;
 
@@ -137,7 +139,7 @@ const MESSAGES = {
   NotAscending: (f) =>
     `${f.list} ids not strictly ascending: ${f.id} at index ${f.index} follows ${f.prev}`,
   IdInBothLists: (f) => `id ${f.id} is both in the added and in the removed list of a delta`,
-  BadFlags: (f) => `pose flags 0x${f.flags.toString(16)} set bits other than bit 0 (want_full)`,
+  BadFlags: (f) => `pose flags 0x${f.flags.toString(16)} set bits other than bit 0 (want_full) and bit 1 (stereo)`,
   InvalidUtf8: (f) => `${f.field} is not valid UTF-8`,
   NonZeroPadding: (f) => `padding after ${f.field} is not zero`,
   UnknownErrorCode: (f) => `unknown error code ${f.code} (expected 1 to 6)`,
@@ -272,11 +274,12 @@ export function decodeFrame(input) {
     }
     case "pose": {
       const w = fixed(POSE_PAYLOAD_WORDS);
+      const stereo = (w[0] & POSE_FLAG_STEREO) !== 0 ? fixed(2) : null;
       tail(0);
       const flags = w[0];
-      if ((flags & ~POSE_FLAG_WANT_FULL) !== 0) throw new FrameError("BadFlags", { flags });
+      if ((flags & ~(POSE_FLAG_WANT_FULL | POSE_FLAG_STEREO)) !== 0) throw new FrameError("BadFlags", { flags: flags >>> 0 });
       const f = (i) => view.getFloat32((HEADER_WORDS + i) * 4, true);
-      return {
+      const out = {
         kind,
         seq,
         ack,
@@ -288,6 +291,12 @@ export function decodeFrame(input) {
         near: f(11),
         far: f(12),
       };
+      if (stereo) {
+        out.stereo = { ipd_m: f(13) };
+        // The word 0 is "no convergence".
+        if (stereo[1] !== 0) out.stereo.convergence_m = f(14);
+      }
+      return out;
     }
     case "full":
     case "full_lod": {
@@ -409,11 +418,12 @@ export function encodeFrame(frame) {
       words.push(u32("object_count", frame.object_count), textBytes.length);
       break;
     case "pose":
-      words.push(frame.want_full ? POSE_FLAG_WANT_FULL : 0);
+      words.push((frame.want_full ? POSE_FLAG_WANT_FULL : 0) | (frame.stereo ? POSE_FLAG_STEREO : 0));
       // The floats are written below through a DataView; reserve their words.
       for (let i = 0; i < 8; i++) words.push(0);
       words.push(u32("viewport[0]", frame.viewport[0]), u32("viewport[1]", frame.viewport[1]));
       words.push(0, 0);
+      if (frame.stereo) words.push(0, 0);
       break;
     case "full":
       pushStats(words, frame.stats);
@@ -470,6 +480,10 @@ export function encodeFrame(frame) {
     floats.forEach((v, i) => view.setFloat32((HEADER_WORDS + 1 + i) * 4, num("pose field", v), true));
     view.setFloat32((HEADER_WORDS + 11) * 4, num("near", frame.near), true);
     view.setFloat32((HEADER_WORDS + 12) * 4, num("far", frame.far), true);
+    if (frame.stereo) {
+      view.setFloat32((HEADER_WORDS + 13) * 4, num("stereo.ipd_m", frame.stereo.ipd_m), true);
+      view.setFloat32((HEADER_WORDS + 14) * 4, num("stereo.convergence_m", frame.stereo.convergence_m ?? 0), true);
+    }
   }
   if (textBytes) out.set(textBytes, (HEADER_WORDS + words.length) * 4);
   return out;
@@ -506,7 +520,7 @@ export function validateFrame(frame) {
       payload = 2 + Math.ceil(utf8Encoder.encode(frame.info_json).length / 4);
       break;
     case "pose":
-      payload = POSE_PAYLOAD_WORDS;
+      payload = POSE_PAYLOAD_WORDS + (frame.stereo ? 2 : 0);
       break;
     case "full":
       payload = STATS_WORDS + 1 + frame.ids.length;
@@ -574,5 +588,6 @@ export function poseFrame(seq, pose, wantFull = false) {
     viewport: pose.viewport ?? [960, 540],
     near: pose.near ?? 0.1,
     far: pose.far ?? 5000,
+    ...(pose.stereo ? { stereo: pose.stereo } : {}),
   };
 }

@@ -52,6 +52,7 @@ function expectedFrame(entry) {
         viewport: entry.viewport,
         near: entry.near,
         far: entry.far,
+        ...(entry.stereo ? { stereo: entry.stereo } : {}),
       };
     case "full":
       return { ...common, stats: entry.stats, ids: entry.ids };
@@ -116,6 +117,7 @@ for (const entry of manifest.frames) {
         viewport: entry.viewport,
         near: entry.near,
         far: entry.far,
+        ...(entry.stereo ? { stereo: entry.stereo } : {}),
       };
       assert.deepEqual(encodePose(entry.seq, pose, entry.want_full), bytes);
     }
@@ -270,7 +272,8 @@ function cases() {
     ["delta added descending", delta([1, 7, 3], []), "NotAscending", { list: "added", index: 2, prev: 7, id: 3 }],
     ["delta removed repeated", delta([], [0, 0]), "NotAscending", { list: "removed", index: 1, prev: 0, id: 0 }],
     ["delta id in both lists", delta([1, 2, 8], [0, 8]), "IdInBothLists", { id: 8 }],
-    ["pose flag bit 1", pose(2), "BadFlags", { flags: 2 }],
+    ["pose flag bit 2", pose(4), "BadFlags", { flags: 4 }],
+    ["stereo pose without its two words", pose(2), "PayloadSize", { kind: "pose", expected: 15, actual: 13 }],
     ["pose flag bit 31", pose(0x80000001), "BadFlags", { flags: 0x80000001 }],
     [
       "hello JSON not UTF-8",
@@ -336,7 +339,10 @@ test("error messages read like the Rust ones", () => {
   assert.match(new FrameError("BadMagic", { found: 0xdeadbeef }).message, /0xdeadbeef.*0x4c434d48/);
   assert.match(new FrameError("TooLong", { len: 1 << 30 }).message, new RegExp(String(MAX_FRAME_BYTES)));
   assert.match(new FrameError("TooShort", { len: 3 }).message, new RegExp(String(HEADER_BYTES)));
-  assert.equal(new FrameError("BadFlags", { flags: 0x80000001 }).message, "pose flags 0x80000001 set bits other than bit 0 (want_full)");
+  assert.equal(
+    new FrameError("BadFlags", { flags: 0x80000001 }).message,
+    "pose flags 0x80000001 set bits other than bit 0 (want_full) and bit 1 (stereo)",
+  );
   assert.equal(
     new FrameError("UnsupportedVersion", { found: 7, supported: 3 }).message,
     "unsupported protocol version 7, this build supports version 3",

@@ -43,7 +43,7 @@ impl Frame {
     fn payload_words(&self) -> usize {
         match self {
             Frame::Hello(h) => 2 + h.info_json.len().div_ceil(4),
-            Frame::Pose(_) => POSE_PAYLOAD_WORDS,
+            Frame::Pose(p) => POSE_PAYLOAD_WORDS + p.stereo.map_or(0, |_| STEREO_WORDS),
             Frame::Full(f) => {
                 let levels = f.levels.as_ref().map_or(0, |l| l.len().div_ceil(4));
                 STATS_WORDS + 1 + f.ids.len() + levels
@@ -134,7 +134,13 @@ impl Frame {
                 w.text(&h.info_json);
             }
             Frame::Pose(p) => {
-                w.word(if p.want_full { POSE_FLAG_WANT_FULL } else { 0 });
+                let want_full = if p.want_full { POSE_FLAG_WANT_FULL } else { 0 };
+                let stereo = if p.stereo.is_some() {
+                    POSE_FLAG_STEREO
+                } else {
+                    0
+                };
+                w.word(want_full | stereo);
                 for v in p
                     .position
                     .into_iter()
@@ -147,6 +153,10 @@ impl Frame {
                 w.word(p.viewport[1]);
                 w.f32(p.near);
                 w.f32(p.far);
+                if let Some(s) = p.stereo {
+                    w.f32(s.ipd_m);
+                    w.f32(s.convergence_m.unwrap_or(0.0));
+                }
             }
             Frame::Full(f) => {
                 w.words(&f.stats.to_words());
@@ -238,6 +248,16 @@ impl Frame {
             }
             FrameKind::Pose => {
                 let w: [u32; POSE_PAYLOAD_WORDS] = p.fixed()?;
+                let stereo = if w[0] & POSE_FLAG_STEREO != 0 {
+                    let [ipd, convergence] = p.fixed()?;
+                    Some(Stereo {
+                        ipd_m: f32::from_bits(ipd),
+                        // The word 0 is "none"; any other bits are the server's to judge.
+                        convergence_m: (convergence != 0).then(|| f32::from_bits(convergence)),
+                    })
+                } else {
+                    None
+                };
                 p.tail(0)?;
                 let [
                     flags,
@@ -254,7 +274,7 @@ impl Frame {
                     near,
                     far,
                 ] = w;
-                if flags & !POSE_FLAG_WANT_FULL != 0 {
+                if flags & !(POSE_FLAG_WANT_FULL | POSE_FLAG_STEREO) != 0 {
                     return Err(FrameError::BadFlags { flags });
                 }
                 let f = f32::from_bits;
@@ -267,6 +287,7 @@ impl Frame {
                     viewport: [width, height],
                     near: f(near),
                     far: f(far),
+                    stereo,
                 })
             }
             FrameKind::Full | FrameKind::FullLod => {

@@ -34,7 +34,7 @@ pub enum FrameError {
     },
     #[error("id {id} is both in the added and in the removed list of a delta")]
     IdInBothLists { id: u32 },
-    #[error("pose flags {flags:#x} set bits other than bit 0 (want_full)")]
+    #[error("pose flags {flags:#x} set bits other than bit 0 (want_full) and bit 1 (stereo)")]
     BadFlags { flags: u32 },
     #[error("{field} is not valid UTF-8")]
     InvalidUtf8 { field: &'static str },

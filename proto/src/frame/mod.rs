@@ -29,7 +29,7 @@
 //! | kind      | direction       | payload                                                                 |
 //! |-----------|-----------------|-------------------------------------------------------------------------|
 //! | 1 Hello   | server → client | `[object_count][json_byte_len]` JSON bytes (UTF-8, zero-padded to a word) |
-//! | 2 Pose    | client → server | `[flags][px][py][pz][qx][qy][qz][qw][fov_y_deg][width][height][near][far]` (13 words) |
+//! | 2 Pose    | client → server | `[flags][px][py][pz][qx][qy][qz][qw][fov_y_deg][width][height][near][far]` (13 words), then `[ipd_m][convergence_m]` with flag bit 1 |
 //! | 3 Full    | server → client | stats (5 words) `[count]` `ids[count]`                                   |
 //! | 4 Delta   | server → client | stats (5 words) `[added_count \| removed_count << 16]` `added[added_count]` `removed[removed_count]` |
 //! | 5 Error   | server → client | `[code][byte_len]` message bytes (UTF-8, zero-padded to a word)          |
@@ -40,8 +40,10 @@
 //!   like there); the decoder only checks that it is UTF-8. `object_count` is also what
 //!   the derived stats below need.
 //! - **Pose**: all fields are `f32` except `flags`, `width` and `height` (`u32`). Bit 0 of
-//!   `flags` asks for a full frame instead of a delta ([`POSE_FLAG_WANT_FULL`]); the other
-//!   bits must be 0. The codec carries the numbers bit-exactly and does not judge them
+//!   `flags` asks for a full frame instead of a delta ([`POSE_FLAG_WANT_FULL`]); bit 1
+//!   ([`POSE_FLAG_STEREO`], version 3) makes it a stereo pose: two more words, the eyes'
+//!   `ipd_m` and `convergence_m` (the word 0 for none; `+0.0` is never a convergence);
+//!   the other bits must be 0. The codec carries the numbers bit-exactly and does not judge them
 //!   (NaN, a zero quaternion and so on are the server's business).
 //! - **Full**: the visible object IDs, strictly ascending.
 //! - **Delta**: the IDs that became visible and those that stopped being visible since the
@@ -152,7 +154,7 @@ mod error;
 
 use std::fmt;
 
-use crate::Pose;
+use crate::{Pose, Stereo};
 
 pub use delta::{apply_delta, apply_delta_with_levels, diff, diff_levels};
 pub use error::FrameError;
@@ -183,6 +185,13 @@ pub const POSE_PAYLOAD_WORDS: usize = 13;
 
 /// Bit of a Pose frame's `flags` word asking for a full frame; the only bit defined.
 pub const POSE_FLAG_WANT_FULL: u32 = 1;
+
+/// Bit of a Pose frame's flags saying that two more words follow the 13: the stereo
+/// eyes' `ipd_m` and `convergence_m` (0 for none), both `f32`.
+pub const POSE_FLAG_STEREO: u32 = 2;
+
+/// Words a stereo pose adds to the Pose payload.
+pub const STEREO_WORDS: usize = 2;
 
 /// Largest level of detail a frame carries (as many levels as thresholds, plus one).
 pub const MAX_LEVEL: u8 = crate::MAX_LOD_THRESHOLDS as u8;
@@ -391,6 +400,8 @@ pub struct PoseFrame {
     pub near: f32,
     /// Far plane distance in metres.
     pub far: f32,
+    /// Both eyes of a stereo display ([`POSE_FLAG_STEREO`] and two more words).
+    pub stereo: Option<Stereo>,
 }
 
 impl PoseFrame {
@@ -405,6 +416,7 @@ impl PoseFrame {
             viewport: self.viewport,
             near: self.near,
             far: self.far,
+            stereo: self.stereo,
         }
     }
 
@@ -424,6 +436,7 @@ impl PoseFrame {
             viewport: pose.viewport,
             near: pose.near,
             far: pose.far,
+            stereo: pose.stereo,
         })
     }
 }

@@ -19,6 +19,8 @@ use homcull_proto::Pose;
 
 use crate::core::geom::{Aabb, Plane};
 
+pub mod stereo;
+
 /// Largest accepted viewport side in pixels.
 pub const MAX_VIEWPORT_SIDE: u32 = 8192;
 /// How far outward a projected rect is widened before rounding, in pixels.
@@ -43,6 +45,10 @@ pub enum PoseError {
     BothOrientations,
     #[error("look_at must differ from position and not be parallel to up")]
     LookAt,
+    #[error("stereo.ipd_m must be in (0, {max}] metres, got {0}", max = stereo::MAX_IPD_M)]
+    Ipd(f32),
+    #[error("stereo.convergence_m must be finite and beyond near ({near}), got {convergence}")]
+    Convergence { convergence: f32, near: f32 },
 }
 
 /// A validated pose with its matrices and frustum.
@@ -60,6 +66,10 @@ pub struct Camera {
     pub far: f32,
     /// `proj[0][0]` and `proj[1][1]`: NDC per unit of view x/y at depth 1.
     pub scale: [f32; 2],
+    /// Horizontal shift of the frustum in NDC (0 but for a stereo eye converging at a
+    /// finite depth, see [`stereo`]): a view point projects to NDC x
+    /// `x · scale[0] / depth + shift`.
+    pub shift: f32,
     /// Left, right, bottom, top, near, far; inner side positive.
     pub planes: [Plane; 6],
 }
@@ -141,8 +151,28 @@ impl Camera {
         near: f32,
         far: f32,
     ) -> Self {
+        Self::from_view_shifted(position, view, fov_y_deg, width, height, near, far, 0.0)
+    }
+
+    /// [`Camera::from_view`] with the frustum shifted by `shift` in NDC x (an off-axis
+    /// frustum: the window moves sideways, the eye and its optical axis stay).
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_view_shifted(
+        position: Vec3,
+        view: Mat4,
+        fov_y_deg: f32,
+        width: u32,
+        height: u32,
+        near: f32,
+        far: f32,
+        shift: f32,
+    ) -> Self {
         let aspect = width as f32 / height as f32;
-        let proj = perspective_reversed_z(fov_y_deg.to_radians(), aspect, near, far);
+        let mut proj = perspective_reversed_z(fov_y_deg.to_radians(), aspect, near, far);
+        // Clip w is the view depth d = −z, so x_ndc = scale·x/d − proj.z_axis.x.
+        if shift != 0.0 {
+            proj.z_axis.x = -shift;
+        }
         let view_proj = proj * view;
         let r = |i: usize| view_proj.row(i);
         let planes = [
@@ -163,6 +193,7 @@ impl Camera {
             near,
             far,
             scale: [proj.x_axis.x, proj.y_axis.y],
+            shift,
             planes,
         }
     }
@@ -197,7 +228,7 @@ impl Camera {
             let ndc_x = (x as f32 + 0.5) / self.width as f32 * 2.0 - 1.0;
             let ndc_y = 1.0 - (y as f32 + 0.5) / self.height as f32 * 2.0;
             let view = Vec4::new(
-                ndc_x * depth / self.scale[0],
+                (ndc_x - self.shift) * depth / self.scale[0],
                 ndc_y * depth / self.scale[1],
                 -depth,
                 1.0,
@@ -245,7 +276,7 @@ impl Camera {
         let (w, h) = (self.width as f32, self.height as f32);
         let (mut sx, mut sy) = ([0.0f32; 8], [0.0f32; 8]);
         for i in 0..8 {
-            sx[i] = (x[i] * self.scale[0] / d[i] * 0.5 + 0.5) * w;
+            sx[i] = ((x[i] * self.scale[0] / d[i] + self.shift) * 0.5 + 0.5) * w;
             sy[i] = (0.5 - y[i] * self.scale[1] / d[i] * 0.5) * h;
         }
         let mut lo = [f32::INFINITY; 2];
@@ -291,7 +322,7 @@ impl Camera {
         let mut farthest = f32::NEG_INFINITY;
         let mut add = |v: Vec3| {
             let d = -v.z;
-            let sx = (v.x * self.scale[0] / d * 0.5 + 0.5) * self.width as f32;
+            let sx = ((v.x * self.scale[0] / d + self.shift) * 0.5 + 0.5) * self.width as f32;
             let sy = (0.5 - v.y * self.scale[1] / d * 0.5) * self.height as f32;
             lo = [lo[0].min(sx), lo[1].min(sy)];
             hi = [hi[0].max(sx), hi[1].max(sy)];
@@ -422,7 +453,7 @@ pub struct PoseUniform {
     pub view: [[f32; 4]; 4],
     /// `[scale_x, scale_y, width, height]`.
     pub scale_viewport: [f32; 4],
-    /// `[near, far, deb_plane_depth, 0]`.
+    /// `[near, far, deb_plane_depth, shift]` (`shift`: [`Camera::shift`]).
     pub near_far: [f32; 4],
     pub _pad: [f32; 24],
 }
@@ -439,7 +470,7 @@ impl PoseUniform {
                 cam.width as f32,
                 cam.height as f32,
             ],
-            near_far: [cam.near, cam.far, deb_plane_depth, 0.0],
+            near_far: [cam.near, cam.far, deb_plane_depth, cam.shift],
             _pad: [0.0; 24],
         }
     }

@@ -26,7 +26,7 @@ pub mod settings;
 pub mod started;
 
 pub use error::CullError;
-pub use mask::{clear_bit, empty_mask, has_bit, set_bit, words_per_pose};
+pub use mask::{clear_bit, empty_mask, has_bit, set_bit, union, words_per_pose};
 pub use pass_times::{Pass, PassMsPerPose, PassTimes};
 pub use plan::{PosePlan, plan, plan_preferring};
 pub use prepared::PreparedScene;
@@ -42,7 +42,30 @@ use crate::core::camera::Camera;
 pub struct PoseResult {
     /// Object IDs that may be visible, ascending.
     pub visible: Vec<u32>,
+    /// The in-frustum objects it was chosen from, ascending.
+    pub candidates: Vec<u32>,
     pub stats: CullStats,
+}
+
+impl PoseResult {
+    /// One answer for several views of one pose (the eyes of a stereo pose): every
+    /// object any of them may see, from every object in any of their frusta. Times add
+    /// up; occluder counts are the largest view's.
+    pub fn union_of(results: Vec<PoseResult>) -> Option<PoseResult> {
+        results.into_iter().reduce(|mut a, b| {
+            a.visible = union(&a.visible, &b.visible);
+            a.candidates = union(&a.candidates, &b.candidates);
+            let (s, t) = (&mut a.stats, &b.stats);
+            s.candidates = a.candidates.len() as u32;
+            s.culled_by_frustum = s.objects - s.candidates;
+            s.culled_by_occlusion = s.candidates - a.visible.len() as u32;
+            s.occluders_used = s.occluders_used.max(t.occluders_used);
+            s.occluder_triangles = s.occluder_triangles.max(t.occluder_triangles);
+            s.gpu_ms += t.gpu_ms;
+            s.total_ms += t.total_ms;
+            a
+        })
+    }
 }
 
 /// A backend that runs the image-space part of culling for a batch of poses.

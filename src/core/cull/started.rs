@@ -121,10 +121,10 @@ pub(super) fn finish<C: Culler + ?Sized>(
     let total_ms = started.elapsed().as_secs_f64() * 1e3 / n;
     let objects = prep.scene.objects.len() as u32;
     Ok(plans
-        .iter()
+        .into_iter()
         .enumerate()
         .map(|(k, p)| {
-            let visible = match masks.get(k) {
+            let visible: Vec<u32> = match masks.get(k) {
                 Some(m) => p
                     .candidates
                     .iter()
@@ -143,7 +143,11 @@ pub(super) fn finish<C: Culler + ?Sized>(
                 gpu_ms: image_ms / n,
                 total_ms,
             };
-            PoseResult { visible, stats }
+            PoseResult {
+                visible,
+                candidates: p.candidates,
+                stats,
+            }
         })
         .collect())
 }

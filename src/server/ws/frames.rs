@@ -10,7 +10,7 @@ use homcull_proto::frame::{
 use std::time::Instant;
 
 use super::Pending;
-use crate::core::camera::Camera;
+use crate::core::camera::stereo;
 use crate::core::cull::PoseResult;
 
 /// A visible set and, on a stream that asked for them, the level of detail of each ID.
@@ -86,14 +86,14 @@ pub(super) fn parse_binary(bytes: &[u8]) -> Result<Pending, ErrorFrame> {
     match Frame::decode(bytes) {
         Ok(Frame::Pose(p)) => {
             let pose = p.to_pose();
-            let cam = Camera::new(&pose).map_err(|e| ErrorFrame {
+            let eyes = stereo::eyes(&pose).map_err(|e| ErrorFrame {
                 ack: p.seq,
                 ..bad(ErrorCode::InvalidPose, e.to_string())
             })?;
             Ok(Pending {
                 seq: p.seq,
                 pose,
-                cam,
+                eyes,
                 want_full: p.want_full,
                 velocity: Vec3::ZERO,
             })
@@ -109,14 +109,14 @@ pub(super) fn parse_binary(bytes: &[u8]) -> Result<Pending, ErrorFrame> {
 pub(super) fn parse_text(text: &str) -> Result<Pending, ErrorFrame> {
     let m: PoseMessage = serde_json::from_str(text)
         .map_err(|e| bad(ErrorCode::MalformedFrame, format!("pose message: {e}")))?;
-    let cam = Camera::new(&m.pose).map_err(|e| ErrorFrame {
+    let eyes = stereo::eyes(&m.pose).map_err(|e| ErrorFrame {
         ack: m.seq,
         ..bad(ErrorCode::InvalidPose, e.to_string())
     })?;
     Ok(Pending {
         seq: m.seq,
         pose: m.pose,
-        cam,
+        eyes,
         want_full: m.full,
         velocity: Vec3::ZERO,
     })

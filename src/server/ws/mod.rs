@@ -45,11 +45,12 @@ use liveness::{Liveness, Tick};
 
 use super::error::ApiError;
 use super::listen::{AddressSlot, ConnectionSlot};
-use super::motion::{HeldSet, MAX_HOLD_MS, MAX_LOOKAHEAD_MS, MotionEstimator, moved, union};
+use super::motion::{HeldSet, MAX_HOLD_MS, MAX_LOOKAHEAD_MS, MotionEstimator, moved};
 use super::state::{AppState, SceneEntry, WsClientSlot};
 use crate::core::camera::Camera;
+use crate::core::camera::stereo;
 use crate::core::cull::PoseResult;
-use crate::core::geom::Aabb;
+use crate::core::cull::union;
 use crate::core::lod;
 
 /// Largest message a client may send (a pose frame is 68 bytes).
@@ -166,7 +167,8 @@ pub async fn stream(
 struct Pending {
     seq: u32,
     pose: Pose,
-    cam: Camera,
+    /// The pose's cameras: one, or a stereo pose's two eyes.
+    eyes: Vec<Camera>,
     want_full: bool,
     /// Eye velocity when it arrived (m/s), for the lookahead.
     velocity: Vec3,
@@ -272,7 +274,7 @@ async fn client(
                 match parsed {
                     Ok(mut p) => {
                         bad = 0;
-                        motion.observe(Instant::now(), p.cam.position);
+                        motion.observe(Instant::now(), Vec3::from(p.pose.position));
                         p.velocity = motion.velocity();
                         mailbox.put(p);
                     }
@@ -352,12 +354,12 @@ async fn client(
         let Some(p) = mailbox.take() else { continue };
         let started = Instant::now();
         last_started = Some(started);
-        let mut cams = vec![p.cam.clone()];
+        let mut cams = p.eyes.clone();
         let ahead = p.velocity * (smoothing.lookahead_ms as f32 * 1e-3);
         if ahead != Vec3::ZERO {
             // The pose was valid, so the moved one is too unless it left f32 range.
-            if let Ok(cam) = Camera::new(&moved(&p.pose, ahead)) {
-                cams.push(cam);
+            if let Ok(eyes) = stereo::eyes(&moved(&p.pose, ahead)) {
+                cams.extend(eyes);
             }
         }
         let prefer = seen_first.then(|| Arc::new(last_set.clone()));
@@ -365,7 +367,7 @@ async fn client(
             .worker
             .cull_preferring(scene.engine.clone(), cams, options, prefer)
             .await
-            .map(|results| smoothed(results, &mut held, &p.cam, &scene));
+            .map(|results| smoothed(results, &mut held, &p.eyes, &scene));
         seq = seq.wrapping_add(1);
         let frame = match answer {
             Err(e) => Frame::Error(ErrorFrame {
@@ -381,10 +383,9 @@ async fn client(
             Ok(r) => {
                 let stats = frame_stats(&r, mailbox.dropped.swap(0, Ordering::Relaxed), started);
                 let want_full = p.want_full || since_full >= state.config.full_every;
-                let levels = options.lod.map(|t| {
-                    let eyes = std::slice::from_ref(&p.cam);
-                    lod::levels(eyes, &r.visible, |id| scene.object_bounds(id), &t)
-                });
+                let levels = options
+                    .lod
+                    .map(|t| lod::levels(&p.eyes, &r.visible, |id| scene.object_bounds(id), &t));
                 let last = Sent {
                     ids: &last_set,
                     levels: last_levels.as_deref(),
@@ -456,18 +457,20 @@ impl ReaderEnd {
     }
 }
 
-/// The set to stream from the culls of a pose and its lookahead (if any): their union
-/// plus the held objects. Objects streamed outside the pose's frustum count as
-/// candidates, so that candidates − visible (what clients show as culled by occlusion)
-/// stays what it says. Without smoothing this is the pose's own answer.
+/// The set to stream from the culls of a pose's `eyes` (the first results) and its
+/// lookahead (if any): their union plus the held objects. Objects streamed outside
+/// every eye's frustum count as candidates, so that candidates − visible (what clients
+/// show as culled by occlusion) stays what it says. Without smoothing this is the
+/// pose's own answer (for a stereo pose, its eyes' union).
 fn smoothed(
-    results: Vec<PoseResult>,
+    mut results: Vec<PoseResult>,
     held: &mut HeldSet,
-    cam: &Camera,
+    eyes: &[Camera],
     scene: &SceneEntry,
 ) -> PoseResult {
-    let mut it = results.into_iter();
-    let mut r = it.next().expect("one result per pose");
+    let lookahead = results.split_off(eyes.len());
+    let mut r = PoseResult::union_of(results).expect("one result per eye");
+    let it = lookahead.into_iter();
     if it.len() == 0 && !held.holds() {
         return r;
     }
@@ -482,8 +485,8 @@ fn smoothed(
             .iter()
             .filter(|id| culled.binary_search(id).is_err())
             .filter(|&&id| {
-                let [lo, hi] = scene.objects[id as usize].aabb;
-                !cam.intersects(&Aabb::new(lo.into(), hi.into()))
+                let b = scene.object_bounds(id);
+                !eyes.iter().any(|cam| cam.intersects(&b))
             })
             .count() as u32;
         r.stats.candidates += outside;

@@ -6,7 +6,7 @@ struct PoseUniform {
     view_proj: mat4x4<f32>,
     view: mat4x4<f32>,
     scale_viewport: vec4<f32>, // scale x, scale y, width, height
-    near_far: vec4<f32>,       // near, far, deb plane depth, unused
+    near_far: vec4<f32>,       // near, far, deb plane depth, shift (NDC x of an off-axis eye)
     pad: array<vec4<f32>, 6>,
 }
 
@@ -48,6 +48,7 @@ const BOX_EDGES = array<vec2<u32>, 12>(
 
 fn project_box(pose: PoseUniform, bmin: vec3<f32>, bmax: vec3<f32>) -> ScreenRect {
     let near = pose.near_far.x;
+    let shift = pose.near_far.w;
     let sc = pose.scale_viewport;
     var v: array<vec3<f32>, 8>;
     var lo = vec2<f32>(1e30, 1e30);
@@ -60,7 +61,7 @@ fn project_box(pose: PoseUniform, bmin: vec3<f32>, bmax: vec3<f32>) -> ScreenRec
         let d = -v[i].z;
         clipped = clipped || d < near;
         if d >= near {
-            let s = vec2<f32>((v[i].x * sc.x / d * 0.5 + 0.5) * sc.z, (0.5 - v[i].y * sc.y / d * 0.5) * sc.w);
+            let s = vec2<f32>(((v[i].x * sc.x / d + shift) * 0.5 + 0.5) * sc.z, (0.5 - v[i].y * sc.y / d * 0.5) * sc.w);
             lo = min(lo, s);
             hi = max(hi, s);
             nearest = min(nearest, d);
@@ -83,7 +84,7 @@ fn project_box(pose: PoseUniform, bmin: vec3<f32>, bmax: vec3<f32>) -> ScreenRec
                 let t = (near - da) / (dc - da);
                 var p = va + (vc - va) * t;
                 p.z = -near;
-                let s = vec2<f32>((p.x * sc.x / near * 0.5 + 0.5) * sc.z, (0.5 - p.y * sc.y / near * 0.5) * sc.w);
+                let s = vec2<f32>(((p.x * sc.x / near + shift) * 0.5 + 0.5) * sc.z, (0.5 - p.y * sc.y / near * 0.5) * sc.w);
                 lo = min(lo, s);
                 hi = max(hi, s);
             }
