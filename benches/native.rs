@@ -10,19 +10,20 @@
 //! - `box_test`: the box test of every in-frustum test box (per box: compare with
 //!   MOC's 40–90 ns per object test).
 //! - `pose`: the whole query (plan, draw, bounds, box test, refinement), what a
-//!   client waits for, beside `exact` (the ID-buffer oracle on the same spans).
+//!   client waits for, beside `exact` (the ID-buffer oracle on the same spans) and
+//!   `stereo` (both eyes of the pose, 64 mm apart: each eye a query of its own).
 
 use std::sync::OnceLock;
 
 use divan::Bencher;
-use homcull::core::camera::Camera;
+use homcull::core::camera::{Camera, stereo};
 use homcull::core::cull::{CullSettings, PosePlan, PreparedScene, plan};
 use homcull::core::native::NativeBackend;
 use homcull::core::native::map::OcclusionMap;
 use homcull::core::occluders::OccluderParams;
 use homcull::core::sampler::PoseSampler;
 use homcull::core::scene::load_path;
-use homcull_proto::{CullOptions, Method};
+use homcull_proto::{CullOptions, Method, Pose, Stereo};
 
 const SCENES: &[&str] = &["munich", "etoile", "oa_shouse", "oa_dm1"];
 const POSES: usize = 32;
@@ -38,6 +39,7 @@ fn main() {
 
 struct Bench {
     prep: PreparedScene,
+    poses: Vec<Pose>,
     cams: Vec<Camera>,
 }
 
@@ -57,7 +59,8 @@ fn scene(name: &str) -> &'static Bench {
                     .map(|p| Camera::new(p).unwrap())
                     .collect();
                 let prep = PreparedScene::new(scene, OccluderParams::default());
-                (n.to_string(), Bench { prep, cams })
+                let poses = sampled.poses;
+                (n.to_string(), Bench { prep, poses, cams })
             })
             .collect()
     });
@@ -159,6 +162,35 @@ fn pose_hom_refined(bencher: Bencher, name: &str) {
 #[divan::bench(args = SCENES)]
 fn pose_exact(bencher: Bencher, name: &str) {
     whole_pose(bencher, name, Method::Exact);
+}
+
+#[divan::bench(args = SCENES)]
+fn pose_stereo_refined(bencher: Bencher, name: &str) {
+    let b = scene(name);
+    let s = settings(b, Method::Hom);
+    let eyes: Vec<Vec<Camera>> = b
+        .poses
+        .iter()
+        .map(|p| {
+            let stereo = Stereo {
+                ipd_m: 0.064,
+                convergence_m: None,
+            };
+            stereo::eyes(&Pose {
+                stereo: Some(stereo),
+                ..p.clone()
+            })
+            .unwrap()
+        })
+        .collect();
+    bencher
+        .counter(divan::counter::ItemsCount::new(eyes.len()))
+        .bench_local(|| {
+            eyes.iter()
+                .flatten()
+                .map(|c| NativeBackend::pose_mask(&b.prep, &plan(&b.prep, c, &s), &s)[0])
+                .sum::<u32>()
+        });
 }
 
 fn whole_pose(bencher: Bencher, name: &str, method: Method) {
