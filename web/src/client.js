@@ -72,6 +72,14 @@ export function normalizePose(pose) {
     viewport: [Math.round(viewport[0]) >>> 0, Math.round(viewport[1]) >>> 0],
     near: f32(pose.near ?? 0.1),
     far: f32(pose.far ?? 5000),
+    ...(pose.stereo
+      ? {
+          stereo: {
+            ipd_m: f32(pose.stereo.ipd_m),
+            ...(pose.stereo.convergence_m !== undefined ? { convergence_m: f32(pose.stereo.convergence_m) } : {}),
+          },
+        }
+      : {}),
   };
 }
 
@@ -84,7 +92,9 @@ function samePose(a, b) {
     eq(a.viewport, b.viewport) &&
     Object.is(a.fov_y_deg, b.fov_y_deg) &&
     Object.is(a.near, b.near) &&
-    Object.is(a.far, b.far)
+    Object.is(a.far, b.far) &&
+    Object.is(a.stereo?.ipd_m, b.stereo?.ipd_m) &&
+    Object.is(a.stereo?.convergence_m, b.stereo?.convergence_m)
   );
 }
 

@@ -82,6 +82,7 @@ scene3.add(camera);
 
 // Lockstep display (display.js): the camera of the pose the drawn set answers.
 const answeredCamera = new THREE.PerspectiveCamera(60, 16 / 9, NEAR, DEFAULT_FAR);
+const eyeCamera = new THREE.PerspectiveCamera(60, 16 / 9, NEAR, DEFAULT_FAR);
 
 const overviewCamera = new THREE.PerspectiveCamera(50, 16 / 9, 1, 20000);
 const frustumProxy = new THREE.PerspectiveCamera(60, 16 / 9, NEAR, 60);
@@ -132,6 +133,8 @@ const app = {
   fps: 0,
   frameTimes: [],
   debugGroup: null,
+  stereo: query.get("stereo") === "1", // side-by-side stereo view (key V)
+  eyes: [], // the eye positions of the last stereo frame drawn
   tint: new Map(), // id → level of the drawn objects the debug view tints by level
   lodSkipped: null, // triangles coarser levels would skip in the drawn set (null: no levels)
   // Debug view: the occluders the server renders for a recent pose (POST …/occluders).
@@ -282,6 +285,14 @@ export const STREAM_OPTIONS = { refine: false };
 export const LOD_PX = "256,64,16";
 
 /**
+ * Distance between the eyes of the side-by-side stereo view (`?stereo=1`, key V), metres.
+ * The viewer then sends stereo poses (both eyes in one query, parallel optical axes)
+ * culled at one eye's viewport, half the canvas, and draws the one answer twice, each
+ * half of the canvas from its eye.
+ */
+export const STEREO_IPD_M = 0.064;
+
+/**
  * Triangles a client would skip drawing objects at their levels instead of in full, if
  * each level had a quarter of the triangles of the one before (halving the detail along
  * both screen axes): `sum over visible objects of triangles × (1 − 4^−level)`.
@@ -369,8 +380,7 @@ export function guardBand(w, h, fovDeg) {
  * is drawn with this very view), else widened by the guard band.
  */
 function currentPose() {
-  const w = Math.max(1, Math.round(canvas.clientWidth));
-  const h = Math.max(1, Math.round(canvas.clientHeight));
+  const [w, h] = eyeViewport();
   app.sendingExact = app.lockstep;
   const band = app.lockstep ? { fov: camera.fov, viewport: [w, h] } : guardBand(w, h, camera.fov);
   return {
@@ -380,7 +390,15 @@ function currentPose() {
     viewport: band.viewport,
     near: camera.near,
     far: camera.far,
+    ...(app.stereo ? { stereo: { ipd_m: STEREO_IPD_M } } : {}),
   };
+}
+
+/** The viewport of one drawn eye: the canvas, or half of it side by side in stereo. */
+function eyeViewport() {
+  const w = Math.max(1, Math.round(canvas.clientWidth));
+  const h = Math.max(1, Math.round(canvas.clientHeight));
+  return [app.stereo ? Math.max(1, Math.round(w / 2)) : w, h];
 }
 
 // --- controls ------------------------------------------------------------------------
@@ -451,6 +469,7 @@ window.addEventListener("keydown", (e) => {
     KeyB: () => setDebug(!app.debug),
     KeyO: () => setOverview(!app.overview),
     KeyP: () => setPyramid($("pyramid").hidden),
+    KeyV: () => setStereo(!app.stereo),
   }[e.code];
   if (single) {
     if (!e.repeat) single();
@@ -501,6 +520,12 @@ $("culling-toggle").onchange = (e) => setCulling(e.target.checked);
 $("debug-toggle").onchange = (e) => setDebug(e.target.checked);
 $("overview-toggle").onchange = (e) => setOverview(e.target.checked);
 $("pyramid-button").onclick = () => setPyramid($("pyramid").hidden);
+$("stereo-toggle").onchange = (e) => setStereo(e.target.checked);
+
+function setStereo(on) {
+  app.stereo = on;
+  $("stereo-toggle").checked = on;
+}
 $("pyramid-close").onclick = () => setPyramid(false);
 
 function setCulling(on) {
@@ -523,6 +548,7 @@ function setOverview(on) {
 $("culling-toggle").checked = app.culling;
 $("debug-toggle").checked = app.debug;
 $("overview-toggle").checked = app.overview;
+$("stereo-toggle").checked = app.stereo;
 
 // --- drawing the visible set ---------------------------------------------------------
 
@@ -769,8 +795,9 @@ function resize() {
   if (size.x !== w || size.y !== h) {
     renderer.setSize(w, h, false);
   }
-  if (camera.aspect !== w / h) {
-    camera.aspect = w / h;
+  const [ew, eh] = eyeViewport();
+  if (camera.aspect !== ew / eh) {
+    camera.aspect = ew / eh;
     camera.updateProjectionMatrix();
   }
   overviewCamera.aspect = w / h;
@@ -815,6 +842,7 @@ function loop(now) {
   const answered = app.lockstep && app.latest?.view?.exact ? app.latest.view : null;
   const drawnCamera = answered ? cameraForView(answered) : camera;
   if (app.overview) renderOverview();
+  else if (app.stereo) renderStereo(drawnCamera);
   else renderer.render(scene3, drawnCamera);
   app.rendered = app.latest
     ? {
@@ -839,6 +867,32 @@ function loop(now) {
   }
 }
 
+/**
+ * Draws the scene twice side by side, the left half from the left eye and the right
+ * half from the right eye of `center` (`STEREO_IPD_M` apart along its right axis,
+ * looking the same way), as the server culled them.
+ */
+function renderStereo(center) {
+  const w = Math.max(1, Math.round(canvas.clientWidth));
+  const h = Math.max(1, Math.round(canvas.clientHeight));
+  const half = Math.max(1, Math.round(w / 2));
+  app.eyes = [];
+  renderer.setScissorTest(true);
+  [-0.5, 0.5].forEach((side, k) => {
+    eyeCamera.copy(center);
+    eyeCamera.aspect = half / h;
+    eyeCamera.translateX(side * STEREO_IPD_M);
+    eyeCamera.updateProjectionMatrix();
+    eyeCamera.updateMatrixWorld();
+    renderer.setViewport(k * half, 0, half, h);
+    renderer.setScissor(k * half, 0, half, h);
+    renderer.render(scene3, eyeCamera);
+    app.eyes.push(eyeCamera.position.toArray());
+  });
+  renderer.setScissorTest(false);
+  renderer.setViewport(0, 0, w, h);
+}
+
 /** `answeredCamera` placed at a pose as sent ({position, rotation, fov_y_deg, viewport}). */
 function cameraForView(view) {
   answeredCamera.position.fromArray(view.position);
@@ -858,7 +912,7 @@ function viewOf(cam) {
     position: cam.position.toArray(),
     rotation: cam.quaternion.toArray(),
     fov_y_deg: cam.fov,
-    viewport: [Math.max(1, Math.round(canvas.clientWidth)), Math.max(1, Math.round(canvas.clientHeight))],
+    viewport: eyeViewport(),
     near: cam.near,
     far: cam.far,
   };
@@ -929,6 +983,11 @@ window.homcull = {
   },
   setCulling,
   setDebug,
+  setStereo,
+  /** The eye positions the last stereo frame was drawn from (empty in mono). */
+  get eyes() {
+    return app.stereo ? app.eyes : [];
+  },
   setOverview,
   setPyramid,
   setMode,

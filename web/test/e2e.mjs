@@ -417,6 +417,43 @@ async function main() {
   await page.click("#debug-toggle"); // also leaves the view from above
   log(`screenshots in ${ARTIFACTS}`);
 
+  // Stereo, side by side: both eyes drawn from one answer, the server's for the stereo pose.
+  await page.click("#stereo-toggle");
+  await page.evaluate(() => window.homcull.setPose([5, 1.7, 0], -90, 0));
+  await page.waitForFunction(
+    () => {
+      const h = window.homcull;
+      const p = h.lastPose;
+      return Boolean(p && p.stereo && p.position[0] === 5 && h.lastFrame && h.lastFrame.ack === p.seq && h.eyes.length === 2);
+    },
+    null,
+    { timeout: STEP_TIMEOUT_MS },
+  );
+  await frames(2);
+  const st = await page.evaluate(() => {
+    const h = window.homcull;
+    return { drawn: h.drawnIds(), frame: h.lastFrame, pose: h.lastPose, eyes: h.eyes };
+  });
+  assert.ok(Math.abs(st.pose.stereo.ipd_m - 0.064) < 1e-6, `stereo pose sent: ${JSON.stringify(st.pose.stereo)}`);
+  assert.deepEqual(st.drawn, st.frame.ids, "stereo: both eyes draw the streamed set");
+  {
+    const { position, rotation, fov_y_deg, viewport, near, far, stereo } = st.pose;
+    const cull = await getJson(`${base}/v1/scenes/demo/cull`, {
+      method: "POST",
+      headers: { "content-type": "application/json" },
+      body: JSON.stringify({ pose: { position, rotation, fov_y_deg, viewport, near, far, stereo }, options: { refine: false } }),
+    });
+    // This page streams with the viewer's smoothing, which only adds objects.
+    const missing = cull.visible.filter((id) => !st.frame.ids.includes(id));
+    assert.deepEqual(missing, [], "stereo: the streamed set lacks objects POST /cull of the stereo pose returns");
+  }
+  const [l, r] = st.eyes;
+  const apart = Math.hypot(l[0] - r[0], l[1] - r[1], l[2] - r[2]);
+  assert.ok(Math.abs(apart - 0.064) < 1e-4, `eyes drawn ${apart} m apart`);
+  await page.screenshot({ path: join(ARTIFACTS, "viewer-stereo.png") });
+  log(`stereo: ${st.frame.ids.length} objects drawn by both eyes, eyes ${apart.toFixed(3)} m apart`);
+  await page.click("#stereo-toggle");
+
   // Culling off draws everything, and the HUD says so.
   await page.click("#culling-toggle");
   await frames(2);
