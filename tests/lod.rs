@@ -14,7 +14,7 @@ use homcull::core::geom::Aabb;
 use homcull::core::lod;
 use homcull::core::occluders::OccluderParams;
 use homcull::core::sampler::PoseSampler;
-use homcull::core::scene::{Scene, demo_city, load_path};
+use homcull::core::scene::Scene;
 use homcull_proto::LodThresholds;
 
 /// The reference size: larger side of the clamped float bounds (0 if none).
@@ -103,21 +103,11 @@ fn check_scene(name: &str, scene: Scene, n: usize) -> (usize, usize) {
 
 #[test]
 fn levels_agree_with_the_exact_projected_bounds() {
-    let (compared, _) = check_scene("demo", demo_city(), 40);
-    assert!(compared > 10_000, "{compared}");
-    let Some(dir) = common::scenes_dir() else {
-        return;
-    };
-    for name in [
-        "munich",
-        "etoile",
-        "oa_shouse",
-        "oa_dm1",
-        "godot_room",
-        "fzk_haus",
-    ] {
-        let scene = load_path(&dir.join(format!("{name}.glb"))).unwrap();
-        check_scene(name, scene, 40);
+    for (name, scene) in common::scenes::demo_and_shared() {
+        let (compared, _) = check_scene(&name, scene, 40);
+        if name == "demo" {
+            assert!(compared > 10_000, "{compared}");
+        }
     }
 }
 

@@ -16,7 +16,6 @@ use homcull::core::gpu::GpuBackend;
 use homcull::core::native::NativeBackend;
 use homcull::core::occluders::OccluderParams;
 use homcull::core::sampler::PoseSampler;
-use homcull::core::scene::{Scene, demo_city, load_path};
 use homcull_proto::{DebVariant, Method, Pose, Stereo};
 
 const IPD: f32 = 0.064;
@@ -91,29 +90,9 @@ fn check(name: &str, culler: &mut dyn Culler, prep: &PreparedScene, n: usize) ->
     (false_culls, ratio)
 }
 
-fn scenes() -> Vec<(String, Scene)> {
-    let mut out = vec![("demo".to_string(), demo_city())];
-    if let Some(dir) = common::scenes_dir() {
-        for name in [
-            "munich",
-            "etoile",
-            "oa_shouse",
-            "oa_dm1",
-            "godot_room",
-            "fzk_haus",
-        ] {
-            out.push((
-                name.into(),
-                load_path(&dir.join(format!("{name}.glb"))).unwrap(),
-            ));
-        }
-    }
-    out
-}
-
 #[test]
 fn stereo_on_the_native_backend_holds_both_eyes_answers() {
-    for (name, scene) in scenes() {
+    for (name, scene) in common::scenes::demo_and_shared() {
         let prep = PreparedScene::new(scene, OccluderParams::default());
         let (false_culls, ratio) = check(&name, &mut NativeBackend, &prep, 200);
         assert_eq!(false_culls, 0, "{name}");
@@ -124,7 +103,7 @@ fn stereo_on_the_native_backend_holds_both_eyes_answers() {
 #[test]
 fn stereo_on_the_gpu_holds_both_eyes_answers() {
     let Some(gpu) = common::gpu() else { return };
-    for (name, scene) in scenes().into_iter().take(2) {
+    for (name, scene) in common::scenes::demo_and_shared().into_iter().take(2) {
         let prep = PreparedScene::new(scene, OccluderParams::default());
         let mut backend = GpuBackend::new(gpu.clone(), &prep);
         let (false_culls, ratio) = check(&name, &mut backend, &prep, 16);

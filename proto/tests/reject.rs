@@ -7,9 +7,8 @@ use std::collections::BTreeSet;
 use common::*;
 
 use homcull_proto::frame::{
-    ErrorCode, Frame, FrameError, FrameKind, FrameStats, HEADER_BYTES, LodChanges, MAGIC,
-    MAX_DELTA_IDS, MAX_FRAME_BYTES, VisibleDelta, VisibleFull, apply_delta,
-    apply_delta_with_levels,
+    ErrorCode, Frame, FrameError, FrameKind, FrameStats, HEADER_BYTES, MAGIC, MAX_DELTA_IDS,
+    MAX_FRAME_BYTES, VisibleDelta, apply_delta,
 };
 
 /// Every rejected input with the error it must produce.
@@ -346,7 +345,7 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             E::UnknownErrorCode { code: 7 },
         ),
     ];
-    cases.extend(lod_cases());
+    cases.extend(levels::lod_cases());
     cases.push((
         "delta removed repeated after a non-empty added list",
         delta(&[5], &[6, 6]),
@@ -367,76 +366,6 @@ fn every_crafted_input_is_rejected_as_expected() {
         assert_eq!(got, Err(expected.clone()), "{what}");
         assert!(!expected.to_string().is_empty());
     }
-}
-
-/// Frames with levels of detail (kinds 6 and 7) that the decoder refuses.
-fn lod_cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
-    use FrameError as E;
-    vec![
-        (
-            "full_lod without its level word",
-            full_lod(&[1, 2], &[]),
-            E::PayloadSize {
-                kind: FrameKind::FullLod,
-                expected: 5 + 1 + 3,
-                actual: 5 + 1 + 2,
-            },
-        ),
-        (
-            "full_lod with level 9",
-            full_lod(&[1, 2], &[u32::from_le_bytes([0, 9, 0, 0])]),
-            E::BadLevel { level: 9 },
-        ),
-        (
-            "full_lod padding not zero",
-            full_lod(&[1, 2], &[u32::from_le_bytes([0, 1, 0, 1])]),
-            E::NonZeroPadding { field: "levels" },
-        ),
-        (
-            "full_lod ids not ascending",
-            full_lod(&[2, 1], &[0]),
-            E::NotAscending {
-                list: "full",
-                index: 1,
-                prev: 2,
-                id: 1,
-            },
-        ),
-        (
-            "delta_lod one level word short",
-            delta_lod(&[4], &[], &[7], &[]),
-            E::PayloadSize {
-                kind: FrameKind::DeltaLod,
-                expected: 5 + 2 + 2 + 1,
-                actual: 5 + 2 + 2,
-            },
-        ),
-        (
-            "delta_lod changed not ascending",
-            delta_lod(&[], &[], &[7, 3], &[0]),
-            E::NotAscending {
-                list: "changed",
-                index: 1,
-                prev: 7,
-                id: 3,
-            },
-        ),
-        (
-            "delta_lod changes an id it adds",
-            delta_lod(&[3, 7], &[], &[7], &[0]),
-            E::ChangedNotKept { id: 7 },
-        ),
-        (
-            "delta_lod changes an id it removes",
-            delta_lod(&[], &[5], &[5], &[0]),
-            E::ChangedNotKept { id: 5 },
-        ),
-        (
-            "delta_lod with level 255",
-            delta_lod(&[3], &[], &[], &[u32::from_le_bytes([255, 0, 0, 0])]),
-            E::BadLevel { level: 255 },
-        ),
-    ]
 }
 
 /// `apply_delta`'s own errors, with the inputs that produce them.
@@ -582,80 +511,10 @@ fn encoding_a_delta_that_does_not_fit_panics() {
     let _ = frame.encode();
 }
 
-/// Frames with levels that `Frame::validate` refuses, and `apply_delta_with_levels`'s
-/// own errors.
-#[test]
-fn levels_must_be_one_per_id_and_changes_of_kept_ids() {
-    let full = Frame::Full(VisibleFull {
-        ids: vec![1, 2, 3],
-        levels: Some(vec![0, 1]),
-        ..VisibleFull::default()
-    });
-    let err = FrameError::LevelCount { ids: 3, levels: 2 };
-    assert_eq!(full.validate(), Err(err.clone()));
-    assert_eq!(err.to_string(), "3 ids but 2 levels of detail");
-    let lod = |added: Vec<u8>, changed: Vec<u32>, changed_levels: Vec<u8>| VisibleDelta {
-        added: vec![4],
-        removed: vec![1],
-        lod: Some(LodChanges {
-            added,
-            changed,
-            changed_levels,
-        }),
-        ..VisibleDelta::default()
-    };
-    let delta_cases = [
-        (
-            lod(vec![], vec![], vec![]),
-            FrameError::LevelCount { ids: 1, levels: 0 },
-        ),
-        (
-            lod(vec![0], vec![2], vec![]),
-            FrameError::LevelCount { ids: 1, levels: 0 },
-        ),
-        (
-            lod(vec![0], vec![1], vec![3]),
-            FrameError::ChangedNotKept { id: 1 },
-        ),
-        (
-            lod(vec![9], vec![], vec![]),
-            FrameError::BadLevel { level: 9 },
-        ),
-    ];
-    for (d, expected) in delta_cases {
-        assert_eq!(
-            Frame::Delta(d.clone()).validate(),
-            Err(expected.clone()),
-            "{d:?}"
-        );
-        let (mut set, mut levels) = (vec![1, 2, 3], vec![0, 0, 0]);
-        assert_eq!(
-            apply_delta_with_levels(&mut set, &mut levels, &d),
-            Err(expected)
-        );
-        assert_eq!((set, levels), (vec![1, 2, 3], vec![0, 0, 0]), "left alone");
-    }
-    // A changed id that is not in the set at all.
-    let (mut set, mut levels) = (vec![1, 2], vec![0, 0]);
-    let d = lod(vec![0], vec![7], vec![1]);
-    assert_eq!(
-        apply_delta_with_levels(&mut set, &mut levels, &d),
-        Err(FrameError::ChangedNotKept { id: 7 })
-    );
-    assert_eq!(
-        apply_delta_with_levels(&mut set, &mut vec![0], &d),
-        Err(FrameError::LevelCount { ids: 2, levels: 1 })
-    );
-    // And one that applies.
-    let d = lod(vec![5], vec![2], vec![3]);
-    apply_delta_with_levels(&mut set, &mut levels, &d).unwrap();
-    assert_eq!((set, levels), (vec![2, 4], vec![3, 5]));
-}
-
 #[test]
 fn every_variant_has_a_rejection_test() {
     let mut seen: BTreeSet<&str> = cases().iter().map(|(_, _, e)| variant(e)).collect();
-    seen.extend(["LevelCount"]); // levels_must_be_one_per_id_and_changes_of_kept_ids
+    seen.extend(["LevelCount"]); // reject_levels.rs
     seen.extend(apply_cases().iter().map(|(_, _, _, e)| variant(e)));
     seen.extend(validate_cases().iter().map(|(_, _, e)| variant(e)));
     let all: BTreeSet<&str> = ALL_VARIANTS.into_iter().collect();

@@ -55,3 +55,27 @@ pub fn random_scene(boxes: &[(f32, f32, f32, f32, f32)]) -> Scene {
     }
     b.build("random")
 }
+
+/// The shared real scenes every whole-scene test runs on, by name.
+pub const SHARED_SCENES: [&str; 6] = [
+    "munich",
+    "etoile",
+    "oa_shouse",
+    "oa_dm1",
+    "godot_room",
+    "fzk_haus",
+];
+
+/// The demo city, then each of [`SHARED_SCENES`] where the scenes directory exists.
+pub fn demo_and_shared() -> Vec<(String, Scene)> {
+    let mut out = vec![("demo".to_string(), homcull::core::scene::demo_city())];
+    if let Some(dir) = super::scenes_dir() {
+        for name in SHARED_SCENES {
+            let path = dir.join(format!("{name}.glb"));
+            let scene = homcull::core::scene::load_path(&path)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            out.push((name.to_string(), scene));
+        }
+    }
+    out
+}

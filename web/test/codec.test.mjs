@@ -297,7 +297,7 @@ function cases() {
       "NotAscending",
       { list: "removed", index: 1, prev: 6, id: 6 },
     ],
-    // lod_cases() of reject.rs: frames with levels of detail.
+    // lod_cases() of proto/tests/common/levels.rs: frames with levels of detail.
     ["full_lod without its level word", fullLod([1, 2], []), "PayloadSize", { kind: "full_lod", expected: 9, actual: 8 }],
     ["full_lod with level 9", fullLod([1, 2], [levelWord([0, 9, 0, 0])]), "BadLevel", { level: 9 }],
     ["full_lod padding not zero", fullLod([1, 2], [levelWord([0, 1, 0, 1])]), "NonZeroPadding", { field: "levels" }],

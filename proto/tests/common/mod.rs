@@ -2,6 +2,8 @@
 //! each frame kind.
 #![allow(dead_code)]
 
+pub mod levels;
+
 use homcull_proto::PROTOCOL_VERSION;
 use homcull_proto::frame::{FrameError, MAGIC};
 
