@@ -42,7 +42,7 @@ Remapping (what differs from a real container, and why):
 
 The WebSocket client is this file's own (RFC 6455 over a socket, standard library only),
 and so is its codec of the binary frames; before any check runs, the codec is tested
-against proto/tests/golden/. It understands wire versions 1 and 2 and speaks the version
+against proto/tests/golden/. It understands wire versions 1 to 3 and speaks the version
 of the server's Hello.
 
 Usage: python3 tests/deploy_runtime.py [--bin PATH] [--only run_as_image|scale_out]
@@ -309,21 +309,25 @@ class WebSocket:
 
 
 # --------------------------------------------------------------------------- binary frames
-# Layout: proto/src/frame/ (module docs); vectors: proto/tests/golden/. Both wire versions
+# Layout: proto/src/frame/ (module docs); vectors: proto/tests/golden/. Three wire versions
 # are understood: 1 (6-word header with kind and payload_words words, 8 stats words, two
-# delta count words) and 2 (4-word header with `version | kind << 16`, 5 stats words, one
-# delta count word `added | removed << 16`). The low 16 bits of word 1 are the version in
-# both; a client speaks the version of the server's Hello. `check_codec` tests this codec
-# against the golden vectors before anything else runs.
+# delta count words), 2 (4-word header with `version | kind << 16`, 5 stats words, one
+# delta count word `added | removed << 16`) and 3 (version 2 plus frames with levels of
+# detail, kinds 6 and 7, and stereo poses, pose flag bit 1 and two more words). The low
+# 16 bits of word 1 are the version in all; a client speaks the version of the server's
+# Hello. `check_codec` tests this codec against the golden vectors before anything else
+# runs.
 
 MAGIC = 0x4C434D48
-VERSIONS = (1, 2)
-HELLO, POSE, FULL, DELTA, ERROR = 1, 2, 3, 4, 5
-KIND_NAMES = {HELLO: "hello", POSE: "pose", FULL: "full", DELTA: "delta", ERROR: "error"}
+VERSIONS = (1, 2, 3)
+HELLO, POSE, FULL, DELTA, ERROR, FULL_LOD, DELTA_LOD = 1, 2, 3, 4, 5, 6, 7
+KIND_NAMES = {HELLO: "hello", POSE: "pose", FULL: "full", DELTA: "delta", ERROR: "error",
+              FULL_LOD: "full_lod", DELTA_LOD: "delta_lod"}
 STATS = {
     1: ("objects", "candidates", "culled_by_frustum", "culled_by_occlusion", "occluders_used",
         "dropped_poses", "gpu_us", "total_us"),
     2: ("candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us"),
+    3: ("candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us"),
 }
 GOLDEN = REPO / "proto" / "tests" / "golden"
 
@@ -339,8 +343,12 @@ def header(version: int, kind: int, seq: int, ack: int, payload_words: int) -> b
 
 
 def pose_frame(seq: int, pose: dict, want_full: bool = False, version: int = 1) -> bytes:
-    payload = struct.pack("<I3f4ff2I2f", 1 if want_full else 0, *pose["position"], *pose["rotation"],
+    stereo = pose.get("stereo")
+    flags = (1 if want_full else 0) | (2 if stereo else 0)
+    payload = struct.pack("<I3f4ff2I2f", flags, *pose["position"], *pose["rotation"],
                           pose["fov_y_deg"], *pose["viewport"], pose["near"], pose["far"])
+    if stereo:
+        payload += struct.pack("<2f", stereo["ipd_m"], stereo.get("convergence_m", 0.0))
     return header(version, POSE, seq, 0, len(payload) // 4) + payload
 
 
@@ -370,24 +378,45 @@ def decode_frame(b: bytes) -> dict:
         expect(off + 8 + (nbytes + 3) // 4 * 4 == len(b), f"{KIND_NAMES[kind]} frame length mismatch")
         if kind == HELLO:
             f["info"] = json.loads(f["info_json"])
-    elif kind in (FULL, DELTA):
+    elif kind in (FULL, DELTA, FULL_LOD, DELTA_LOD):
         names = STATS[version]
         f["stats"] = dict(zip(names, w[:len(names)]))
         c = len(names)
-        if kind == FULL:
-            f["ids"] = list(w[c + 1:c + 1 + w[c]])
-            expect(c + 1 + w[c] == n, "full frame length mismatch")
+
+        def levels_at(words: int, count: int) -> list[int]:
+            # `count` level bytes from payload word `words` on (one byte each, zero-padded).
+            return list(b[off + 4 * words:off + 4 * words + count])
+
+        if kind in (FULL, FULL_LOD):
+            count = w[c]
+            f["ids"] = list(w[c + 1:c + 1 + count])
+            level_words = (count + 3) // 4 if kind == FULL_LOD else 0
+            if kind == FULL_LOD:
+                f["levels"] = levels_at(c + 1 + count, count)
+            expect(c + 1 + count + level_words == n, "full frame length mismatch")
         else:
             if version == 1:
                 na, nr, c = w[c], w[c + 1], c + 2
             else:
                 na, nr, c = w[c] & 0xFFFF, w[c] >> 16, c + 1
+            nc = 0
+            if kind == DELTA_LOD:
+                nc, c = w[c], c + 1
             f["added"], f["removed"] = list(w[c:c + na]), list(w[c + na:c + na + nr])
-            expect(c + na + nr == n, "delta frame length mismatch")
+            level_words = 0
+            if kind == DELTA_LOD:
+                f["changed"] = list(w[c + na + nr:c + na + nr + nc])
+                levels = levels_at(c + na + nr + nc, na + nc)
+                f["added_levels"], f["changed_levels"] = levels[:na], levels[na:]
+                level_words = (na + nc + 3) // 4
+            expect(c + na + nr + nc + level_words == n, "delta frame length mismatch")
     elif kind == POSE:
         flags, *rest = struct.unpack_from("<I3f4ff2I2f", b, off)
         f.update(want_full=bool(flags & 1), position=rest[0:3], rotation=rest[3:7], fov_y_deg=rest[7],
                  viewport=rest[8:10], near=rest[10], far=rest[11])
+        if flags & 2:
+            ipd, convergence = struct.unpack_from("<2f", b, off + 13 * 4)
+            f["stereo"] = {"ipd_m": ipd, **({"convergence_m": convergence} if convergence != 0 else {})}
     else:
         raise Failed(f"unknown frame kind {kind}")
     return f
@@ -404,7 +433,7 @@ def check_codec() -> str:
         expect(f["version"] == version, f"{where}: version {f['version']} != {version}")
         expect(KIND_NAMES.get(f["kind"]) == g["kind"], f"{where}: kind {f['kind']} != {g['kind']}")
         for k in ("seq", "ack", "byte_length", "object_count", "info_json", "code", "message", "ids",
-                  "added", "removed"):
+                  "added", "removed", "levels", "changed", "added_levels", "changed_levels", "stereo"):
             if k in g:
                 expect(f.get(k) == g[k], f"{where}: {k} {f.get(k)!r} != {g[k]!r}")
         for k, v in g.get("stats", {}).items():
@@ -417,7 +446,7 @@ def check_codec() -> str:
 
 
 def apply(visible: list[int], frame: dict) -> list[int]:
-    if frame["kind"] == FULL:
+    if frame["kind"] in (FULL, FULL_LOD):
         return frame["ids"]
     s = (set(visible) - set(frame["removed"])) | set(frame["added"])
     return sorted(s)
@@ -432,7 +461,7 @@ def recv_frame(ws: WebSocket) -> dict:
     elif f["kind"] == ERROR:
         raise Failed(f"server sent an error frame: code {f['code']}: {f['message']}")
     else:
-        expect(f["kind"] in (FULL, DELTA), f"server sent a {KIND_NAMES.get(f['kind'])} frame")
+        expect(f["kind"] in (FULL, DELTA, FULL_LOD, DELTA_LOD), f"server sent a {KIND_NAMES.get(f['kind'])} frame")
         expect(f["version"] == ws.version, f"frame version {f['version']} != the hello's {ws.version}")
     return f
 
