@@ -4,19 +4,19 @@
 //! (compare: ~100 ns per object test for software occlusion culling such as MOC).
 //! GPU: a whole batch of 1, 16 and 64 poses per method on the demo city at 960×540
 //! (raster + pyramid + test + readback; the passes are timed together because one
-//! submission holds them all), when an adapter exists.
+//! submission holds them all), and 64 stereo poses (both eyes), when an adapter exists.
 
 use std::sync::{Arc, OnceLock};
 
 use divan::Bencher;
-use homcull::core::camera::{Camera, look_at};
+use homcull::core::camera::{Camera, look_at, stereo};
 use homcull::core::cull::{CullSettings, Culler, PosePlan, PreparedScene, plan};
 use homcull::core::gpu::{GpuBackend, GpuContext};
 use homcull::core::hom::ReferenceBackend;
 use homcull::core::hom::pyramid::{self, LevelLayout};
 use homcull::core::occluders::OccluderParams;
 use homcull::core::scene::demo_city;
-use homcull_proto::{CullOptions, DebVariant, Method};
+use homcull_proto::{CullOptions, DebVariant, Method, Pose, Stereo};
 
 fn main() {
     divan::main();
@@ -165,4 +165,36 @@ fn gpu_batch<const M: usize>(b: Bencher, poses: usize) {
     backend.cull(p, &cams, &s).unwrap();
     b.counter(divan::counter::ItemsCount::new(poses))
         .bench_local(|| backend.cull(p, &cams, &s).unwrap());
+}
+
+/// Refined HOM on a batch of stereo poses (both eyes 64 mm apart, each culled as a view
+/// of its own: twice the views of `gpu_batch`), per stereo pose: compare with
+/// `gpu_batch::<0>` at the same batch size.
+#[divan::bench(args = [64], sample_count = 10)]
+fn gpu_batch_stereo(b: Bencher, poses: usize) {
+    let Some(ctx) = gpu() else {
+        eprintln!("no GPU adapter: skipping gpu_batch_stereo");
+        return;
+    };
+    let p = prepared();
+    let mut backend = GpuBackend::new(ctx, p);
+    let s = settings(Method::Hom);
+    let eyes: Vec<Camera> = cams(poses)
+        .iter()
+        .flat_map(|c| {
+            let target = c.position + c.forward();
+            let pose = Pose {
+                viewport: [c.width, c.height],
+                stereo: Some(Stereo {
+                    ipd_m: 0.064,
+                    convergence_m: None,
+                }),
+                ..Pose::looking_at(c.position.to_array(), target.to_array())
+            };
+            stereo::eyes(&pose).expect("a valid stereo pose")
+        })
+        .collect();
+    backend.cull(p, &eyes, &s).unwrap();
+    b.counter(divan::counter::ItemsCount::new(poses))
+        .bench_local(|| backend.cull(p, &eyes, &s).unwrap());
 }
