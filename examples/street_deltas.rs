@@ -1,6 +1,7 @@
 //! Delta ÷ full frame bytes along the whole street of the demo city at walking speed
 //! (1.4 m/s, 60 frames/s: 13,043 poses over 300 m), without and with the stream
-//! smoothing of `server/motion.rs` (the viewer's default: 150 ms lookahead, 300 ms hold).
+//! smoothing of `server/motion.rs` (the viewer's default: 150 ms lookahead, 300 ms hold),
+//! each without and with the viewer's levels of detail (`lod_px=256,64,16`).
 //!
 //! Run: `cargo run --release --example street_deltas [-- WIDTHxHEIGHT]` (default
 //! 480x270). The culls run on the engine directly in batches; time is the walk's own
@@ -13,11 +14,12 @@ use std::time::{Duration, Instant};
 use homcull::core::camera::Camera;
 use homcull::core::cull::union;
 use homcull::core::engine::Engine;
+use homcull::core::lod;
 use homcull::core::occluders::OccluderParams;
 use homcull::eval::loadgen::street_pose;
 use homcull::server::motion::HeldSet;
-use homcull_proto::CullOptions;
-use homcull_proto::frame::{Frame, VisibleDelta, VisibleFull, diff};
+use homcull_proto::frame::{Frame, VisibleDelta, VisibleFull, diff, diff_levels};
+use homcull_proto::{CullOptions, LodThresholds};
 
 const FPS: f32 = 60.0;
 const SPEED: f32 = 1.4;
@@ -86,33 +88,58 @@ fn main() -> anyhow::Result<()> {
             held.update(now, union(&sets[i], &sets[i + ahead]))
         })
         .collect();
+    let objects = &engine.prepared.scene.objects;
+    let viewer_lod = LodThresholds::new(&[256.0, 64.0, 16.0])?;
     for (what, seq) in [("plain", &plain), ("lookahead + hold", &smooth)] {
-        let (mut delta, mut full, mut changed) = (0usize, 0usize, 0usize);
-        for w in seq.windows(2) {
-            let (added, removed) = diff(&w[0], &w[1]);
-            changed += added.len() + removed.len();
-            delta += Frame::Delta(VisibleDelta {
-                added,
-                removed,
-                ..Default::default()
-            })
-            .encoded_len();
-            full += Frame::Full(VisibleFull {
-                ids: w[1].clone(),
-                ..Default::default()
-            })
-            .encoded_len();
+        for lod in [None, Some(viewer_lod)] {
+            // Levels of each streamed set at its own pose, as the server computes them.
+            let levels: Option<Vec<Vec<u8>>> = lod.map(|t| {
+                seq.iter()
+                    .zip(&cams)
+                    .map(|(ids, cam)| {
+                        let eyes = std::slice::from_ref(cam);
+                        lod::levels(eyes, ids, |id| objects[id as usize].aabb, &t)
+                    })
+                    .collect()
+            });
+            let level = |k: usize| levels.as_ref().map(|l| l[k].clone());
+            let (mut delta, mut full, mut changed) = (0usize, 0usize, 0usize);
+            for k in 1..seq.len() {
+                let (added, removed) = diff(&seq[k - 1], &seq[k]);
+                changed += added.len() + removed.len();
+                let lod = levels
+                    .as_ref()
+                    .map(|l| diff_levels(&seq[k - 1], &l[k - 1], &seq[k], &l[k]));
+                delta += Frame::Delta(VisibleDelta {
+                    added,
+                    removed,
+                    lod,
+                    ..Default::default()
+                })
+                .encoded_len();
+                full += Frame::Full(VisibleFull {
+                    ids: seq[k].clone(),
+                    levels: level(k),
+                    ..Default::default()
+                })
+                .encoded_len();
+            }
+            let frames = (seq.len() - 1) as f64;
+            let mean: f64 = seq.iter().map(|s| s.len() as f64).sum::<f64>() / seq.len() as f64;
+            let with = if lod.is_some() {
+                ", levels 256,64,16 px"
+            } else {
+                ""
+            };
+            println!(
+                "{what}{with}: delta/full {:.3} ({:.1} B vs {:.1} B per frame, {:.2} IDs \
+                 changed per frame, {mean:.1} objects in the set)",
+                delta as f64 / full as f64,
+                delta as f64 / frames,
+                full as f64 / frames,
+                changed as f64 / frames
+            );
         }
-        let frames = (seq.len() - 1) as f64;
-        let mean: f64 = seq.iter().map(|s| s.len() as f64).sum::<f64>() / seq.len() as f64;
-        println!(
-            "{what}: delta/full {:.3} ({:.1} B vs {:.1} B per frame, {:.2} IDs changed per \
-             frame, {mean:.1} objects in the set)",
-            delta as f64 / full as f64,
-            delta as f64 / frames,
-            full as f64 / frames,
-            changed as f64 / frames
-        );
     }
     Ok(())
 }
