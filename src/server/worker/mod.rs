@@ -18,6 +18,7 @@ use std::collections::HashMap;
 use std::panic::AssertUnwindSafe;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::{Duration, Instant};
 
 use homcull_proto::CullOptions;
 use tokio::sync::{mpsc, oneshot, watch};
@@ -196,10 +197,14 @@ fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
 
 fn run(rx: &mut mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool, faults: &mut u32) {
     let mut pipeline = Pipeline::default();
+    let mut trim = IdleTrim::default();
     loop {
         // With a batch on the device, take what is waiting without blocking; when
         // nothing is, finish that batch (answering its clients) before waiting.
         let first = if pipeline.idle() {
+            if rx.is_empty() {
+                trim.on_idle();
+            }
             rx.blocking_recv()
         } else {
             match rx.try_recv() {
@@ -250,6 +255,29 @@ fn run(rx: &mut mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool, fault
         }
     }
     tracing::debug!("GPU worker stopped");
+}
+
+/// Hands freed heap pages back to the OS when the worker runs out of work, at most once a
+/// second. A burst of batches frees what it allocated (plans, masks, answers, the
+/// software adapter's per-submission memory) into glibc's per-thread arenas, which keep
+/// the pages: without this a server's resident memory stays at its busiest moment's
+/// (seen in the soak test: +77 MiB after 20 s of load, against +20 MiB with it).
+#[derive(Default)]
+struct IdleTrim {
+    last: Option<Instant>,
+}
+
+impl IdleTrim {
+    fn on_idle(&mut self) {
+        if self
+            .last
+            .is_some_and(|t| t.elapsed() < Duration::from_secs(1))
+        {
+            return;
+        }
+        super::alloc::release_free_heap();
+        self.last = Some(Instant::now());
+    }
 }
 
 /// Method, DEB, threshold bits, refine.
