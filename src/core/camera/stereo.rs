@@ -44,12 +44,13 @@ pub fn eyes(pose: &Pose) -> Result<Vec<Camera>, PoseError> {
             });
         }
     };
+    let right = right_axis(&center);
     [-0.5 * ipd, 0.5 * ipd]
         .into_iter()
         .map(|offset| {
             // Each eye is the mono camera of its own pose (so that culling it is culling
             // that pose, float for float), shifted off-axis when converging.
-            let eye = Camera::new(&eye_pose(pose, offset))?;
+            let eye = Camera::new(&moved_along(pose, right, offset))?;
             Ok(match offset * shift_per_offset {
                 0.0 => eye,
                 shift => Camera::from_view_shifted(
@@ -70,9 +71,17 @@ pub fn eyes(pose: &Pose) -> Result<Vec<Camera>, PoseError> {
 /// The mono pose of the eye `offset` metres along `pose`'s right axis, looking the same
 /// way (a `look_at` target moves with the eye); `pose` must be valid.
 pub fn eye_pose(pose: &Pose, offset: f32) -> Pose {
-    let right = Camera::new(pose)
-        .map(|c| c.view.row(0).truncate().normalize())
-        .unwrap_or(Vec3::X);
+    let right = Camera::new(pose).map_or(Vec3::X, |c| right_axis(&c));
+    moved_along(pose, right, offset)
+}
+
+/// A camera's right axis in world space.
+fn right_axis(cam: &Camera) -> Vec3 {
+    cam.view.row(0).truncate().normalize()
+}
+
+/// `pose` moved `offset` metres along `right`, looking the same way, as a mono pose.
+fn moved_along(pose: &Pose, right: Vec3, offset: f32) -> Pose {
     let moved = |p: [f32; 3]| (Vec3::from(p) + right * offset).to_array();
     Pose {
         position: moved(pose.position),

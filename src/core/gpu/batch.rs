@@ -176,13 +176,13 @@ impl GpuBackend {
 
     /// Records and submits one batch without waiting for it (see `super::in_flight`);
     /// returns the ticket its bitmasks are taken with.
-    fn start(&mut self, plans: &[PosePlan], s: &CullSettings) -> Result<u64, GpuError> {
+    fn start(&mut self, plans: &[PosePlan], s: &CullSettings) -> u64 {
         let ctx = Arc::clone(&self.ctx);
         let passes = Arc::clone(&self.passes);
         let guard = lock_targets(&ctx, &passes, plans);
         let t = guard.as_ref().expect("targets exist");
         let (encoder, refined, _) = self.record(&ctx, t, plans, s, false);
-        Ok(self.submit(encoder, refined))
+        self.submit(encoder, refined)
     }
 
     /// Records, submits and reads back one batch on the (locked) atlas `t`; with
@@ -436,7 +436,7 @@ impl Culler for GpuBackend {
                 self.visibility(prep, plans, s)?,
             ));
         }
-        Ok(StartedVisibility::InFlight(self.start(plans, s)?))
+        Ok(StartedVisibility::InFlight(self.start(plans, s)))
     }
 
     fn finish_visibility(

@@ -116,7 +116,10 @@ impl Pipeline {
                         self.finish(older);
                     }
                 }
-                Err(e) => fail(group, e),
+                Err(e) => {
+                    fail(group, e);
+                    break;
+                }
             }
         }
         if let Some(group) = self.group(seq) {
@@ -183,15 +186,12 @@ impl Pipeline {
     }
 }
 
-/// Sends `e` to every job of `group` (once) and marks it failed.
+/// Sends `e` to every job of `group` (once: the jobs are handed their answer and
+/// dropped) and marks it failed.
 fn fail(group: &mut GroupRun, e: ApiError) {
-    if !group.failed {
-        group.failed = true;
-        for job in &mut group.jobs {
-            let (tx, _) = tokio::sync::oneshot::channel();
-            let reply = std::mem::replace(&mut job.reply, tx);
-            let _ = reply.send(Err(e.clone()));
-        }
+    group.failed = true;
+    for job in std::mem::take(&mut group.jobs) {
+        let _ = job.reply.send(Err(e.clone()));
     }
 }
 
