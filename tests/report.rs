@@ -76,6 +76,47 @@ fn quick_report_writes_markdown_and_plots() {
         "hom-refine, hom ×3 DEBs and hzb per scene"
     );
 
+    // Beside the adapter, the native CPU backend on the same poses: a row per scene,
+    // no false culls, time measured; and its column in the object-count table.
+    let beside = quality
+        .split("### 1b. The native CPU backend beside the adapter")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .expect("the CPU backend beside the adapter");
+    let cpu_rows: Vec<Vec<&str>> = beside
+        .lines()
+        .filter(|l| l.starts_with("| ") && l.contains("| cpu |"))
+        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+        .collect();
+    assert_eq!(cpu_rows.len(), scenes_seen.len(), "{beside}");
+    for c in &cpu_rows {
+        assert_eq!(c[2], "0", "CPU backend false culls on {}", c[0]);
+        let ms: f64 = c[5].parse().expect("CPU backend ms/pose");
+        assert!(ms > 0.0, "{}: CPU backend time", c[0]);
+    }
+    let objects = md
+        .split("## 5. Object count")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .expect("objects section");
+    let cpu_ms: Vec<f64> = objects
+        .lines()
+        .filter(|l| l.starts_with("| ") && l.contains('×'))
+        .map(|l| {
+            l.trim_matches('|')
+                .split('|')
+                .map(str::trim)
+                .nth(7)
+                .unwrap()
+                .parse()
+                .unwrap()
+        })
+        .collect();
+    assert!(
+        !cpu_ms.is_empty() && cpu_ms.iter().all(|&ms| ms > 0.0),
+        "{objects}"
+    );
+
     // GPU time per pass: a row per scene and method with time in every pass it runs.
     let passes = quality
         .split("### GPU time per pass")
@@ -134,6 +175,11 @@ fn quick_report_writes_markdown_and_plots() {
         .find(|l| l.contains("false culls of every HOM variant"))
         .unwrap();
     assert!(zero.ends_with("| yes |"), "{zero}");
+    let cpu_zero = targets
+        .lines()
+        .find(|l| l.contains("false culls of the CPU backend (hom-refine)"))
+        .expect("the CPU backend's conservativeness target");
+    assert!(cpu_zero.ends_with("| yes |"), "{cpu_zero}");
     let mut measured = vec!["batches of 64 ÷ single", "round trip − in-process"];
     if scenes.is_some() {
         measured.push("hom efficiency on the city and game-map scenes");

@@ -99,11 +99,16 @@ pub(super) struct Report {
 impl Report {
     /// An engine over `scene` with an occluder budget of `budget` triangles.
     pub(super) fn engine(&self, scene: Scene, budget: u32) -> Engine {
+        self.engine_on(scene, budget, self.backend.clone())
+    }
+
+    /// [`Report::engine`] on another backend (the native CPU one beside a GPU).
+    pub(super) fn engine_on(&self, scene: Scene, budget: u32, backend: Backend) -> Engine {
         let params = OccluderParams {
             budget_triangles: budget,
             ..Default::default()
         };
-        ResidentScene::assemble(scene, Residency::evaluation(params), self.backend.clone()).engine
+        ResidentScene::assemble(scene, Residency::evaluation(params), backend).engine
     }
 
     pub(super) fn save(&self) -> Result<()> {

@@ -3,7 +3,8 @@
 //!
 //! Sections, each measured side by side on the same adapter in the same run:
 //! 1. quality per scene and method against the exact oracle (threshold 1.0), and where
-//!    HOM's efficiency is lost (in [`losses`]);
+//!    HOM's efficiency is lost (in [`losses`]); beside a GPU adapter, the native CPU
+//!    backend on the same poses (in [`backends`]);
 //! 2. the HOM threshold curve (1.0 … 0.8) with the pixel error each threshold allows;
 //! 3. the occluder budget sweep (demo city, munich);
 //! 4. time per pose against viewport size and batch size, with log-log slopes;
@@ -15,6 +16,7 @@
 //! which case every time in it is CPU time. `report.md` is rewritten after each
 //! section, so an interrupted run leaves what it measured.
 
+mod backends;
 mod budget;
 mod context;
 mod losses;
@@ -111,6 +113,8 @@ pub fn run(a: &ReportOptions, backend: Backend) -> Result<()> {
         r.save()?;
         if run(Section::Quality) {
             let evals = quality::section(&mut r, &scenes)?;
+            r.save()?;
+            backends::section(&mut r, &scenes, &evals)?;
             r.save()?;
             losses::section(&mut r, &scenes)?;
             r.save()?;

@@ -11,6 +11,7 @@ use super::context::{Report, progress, spec};
 use super::plot::{Chart, Series, loglog_slope};
 use super::scenes::Loaded;
 use super::targets::Target;
+use crate::core::engine::Backend;
 use crate::core::occluders::OccluderParams;
 use crate::core::scene::{demo_city, demo_city_sized};
 use crate::eval::{MethodSpec, evaluate};
@@ -211,6 +212,8 @@ fn mem_available_bytes() -> Option<u64> {
 /// that would not fit in the available memory is skipped and the report says so.
 pub(super) fn objects(r: &mut Report) -> Result<()> {
     let p = r.plan.clone();
+    // Beside a GPU adapter, the native CPU backend runs the same poses too.
+    let beside_cpu = r.backend.gpu().is_some();
     let methods = [
         refined()?,
         spec("hom-raster", 1.0),
@@ -221,16 +224,33 @@ pub(super) fn objects(r: &mut Report) -> Result<()> {
         "\n## 5. Object count\n\n\
          Synthetic cities from the demo generator (`scene::demo_city_sized`, N×N blocks), \
          {} poses each at {}×{}, batch {}, budget {} triangles. Time per pose p50; \
-         ns/object = time per pose ÷ objects in the scene.\n\n\
-         | blocks | objects | triangles | hom-refine ms | hom-raster ms | exact ms | frustum ms | hom-raster ns/object | hom-refine efficiency | hom-raster efficiency | false culls |\n\
-         |---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+         ns/object = time per pose ÷ objects in the scene. {}\n\n\
+         | blocks | objects | triangles | hom-refine ms | hom-raster ms | exact ms | frustum ms | hom-refine cpu ms | hom-raster ns/object | hom-refine efficiency | hom-raster efficiency | false culls |\n\
+         |---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
         p.city_poses,
         p.viewport[0],
         p.viewport[1],
         p.batch.min(16),
-        OccluderParams::default().budget_triangles
+        OccluderParams::default().budget_triangles,
+        if beside_cpu {
+            format!(
+                "hom-refine cpu: the same poses on {}; its false culls are counted with \
+                 the adapter's.",
+                Backend::Native.describe()
+            )
+        } else {
+            "hom-refine cpu: run only beside a GPU adapter (here the report's own backend \
+             is the CPU one)."
+                .into()
+        }
     );
-    let names = ["hom-refine", "hom-raster", "exact", "frustum"];
+    let names = [
+        "hom-refine",
+        "hom-raster",
+        "exact",
+        "frustum",
+        "hom-refine (cpu)",
+    ];
     let mut pts: Vec<Vec<(f64, f64)>> = vec![Vec::new(); names.len()];
     let mut skipped = Vec::new();
     for (i, &blocks) in p.city_blocks.iter().enumerate() {
@@ -259,30 +279,61 @@ pub(super) fn objects(r: &mut Report) -> Result<()> {
             OccluderParams::default().budget_triangles,
         );
         let e = evaluate(&mut engine, &cams, &methods, p.batch.min(16), None, false)?;
-        let ms: Vec<f64> = names
+        drop(engine);
+        let cpu = if beside_cpu {
+            let mut engine = r.engine_on(
+                city.scene.clone(),
+                OccluderParams::default().budget_triangles,
+                Backend::Native,
+            );
+            let e = evaluate(
+                &mut engine,
+                &cams,
+                &methods[..1],
+                p.batch.min(16),
+                None,
+                false,
+            )?;
+            Some(e.methods["hom-refine"].clone())
+        } else {
+            None
+        };
+        let mut ms: Vec<f64> = names[..4]
             .iter()
             .map(|n| e.methods[*n].ms_per_pose.p50)
             .collect();
         for (k, m) in ms.iter().enumerate() {
             pts[k].push((objects, *m));
         }
+        if let Some(c) = &cpu {
+            ms.push(c.ms_per_pose.p50);
+            pts[4].push((objects, c.ms_per_pose.p50));
+        }
         let (refine, boxes) = (&e.methods["hom-refine"], &e.methods["hom-raster"]);
         let _ = writeln!(
             r.md,
-            "| {blocks}×{blocks} | {} | {} | {:.2} | {:.2} | {:.2} | {:.3} | {:.0} | {:.3} | {:.3} | {} |",
+            "| {blocks}×{blocks} | {} | {} | {:.2} | {:.2} | {:.2} | {:.3} | {} | {:.0} | {:.3} | {:.3} | {} |",
             e.objects,
             e.triangles,
             ms[0],
             ms[1],
             ms[2],
             ms[3],
+            cpu.as_ref()
+                .map_or("–".into(), |c| format!("{:.2}", c.ms_per_pose.p50)),
             ms[1] * 1e6 / objects,
             refine.efficiency,
             boxes.efficiency,
-            refine.false_culls + boxes.false_culls
+            refine.false_culls + boxes.false_culls + cpu.map_or(0, |c| c.false_culls)
         );
     }
-    let (slopes, series) = slopes_and_series(&names, pts);
+    let shown = if beside_cpu {
+        names.len()
+    } else {
+        names.len() - 1
+    };
+    pts.truncate(shown);
+    let (slopes, series) = slopes_and_series(&names[..shown], pts);
     let _ = writeln!(
         r.md,
         "\nLog-log slope of time per pose against object count: {slopes}.{}",
