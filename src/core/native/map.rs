@@ -57,6 +57,11 @@ pub struct OcclusionMap {
     /// Whether every tile's bounds were built since the last reset (then a draw
     /// re-bounds only the bands it wrote to).
     bounded: bool,
+    /// Draw the bands of one pose in parallel on rayon's pool (for a pose that has
+    /// the cores to itself); the map ends the same either way.
+    pub bands_in_parallel: bool,
+    /// The triangles reaching each band, for a parallel draw.
+    bins: Vec<Vec<u32>>,
 }
 
 impl OcclusionMap {
@@ -362,6 +367,9 @@ fn setup_occluders(
 /// which does not depend on the order of drawing.
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
+    if map.bands_in_parallel && rayon::current_num_threads() > 1 {
+        return draw_bands_in_parallel(map, tris);
+    }
     let mut order = std::mem::take(&mut map.order);
     order.clear();
     order.extend(0..tris.len() as u32);
@@ -398,6 +406,74 @@ fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
     map.order = order;
 }
 
+/// [`draw_binned`] with the bands on rayon's pool: the triangles are binned by band,
+/// then each band is drawn and its tiles bounded by one task, on its own rows of the
+/// map and of the finest bounds (disjoint slices; a span's last chunk that would run
+/// past the band's last row is cut there). Every pixel gets the same maximum as in the
+/// sequential draw, so the map and its bounds are the same.
+fn draw_bands_in_parallel(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
+    use rayon::prelude::*;
+    let (w, h) = (map.width as usize, map.height);
+    let bands = h.div_ceil(BAND) as usize;
+    let mut bins = std::mem::take(&mut map.bins);
+    bins.resize_with(bands, Vec::new);
+    bins.iter_mut().for_each(Vec::clear);
+    for (i, t) in tris.iter().enumerate() {
+        for band in &mut bins[(t.tri.y0 / BAND) as usize..=(t.tri.y1 / BAND) as usize] {
+            band.push(i as u32);
+        }
+    }
+    let tw = map.dims[0].0 as usize;
+    let tile_rows = (BAND / TILE) as usize;
+    let level0 = map.dims[0].0 as usize * map.dims[0].1 as usize;
+    let bounded = map.bounded;
+    let pixels = &mut map.inv_w[..w * h as usize];
+    pixels
+        .par_chunks_mut(BAND as usize * w)
+        .zip(map.far[..level0].par_chunks_mut(tile_rows * tw))
+        .zip(map.near[..level0].par_chunks_mut(tile_rows * tw))
+        .zip(&bins)
+        .enumerate()
+        .for_each(|(band, (((px, far), near), list))| {
+            if bounded && list.is_empty() {
+                return; // the band's pixels, and so its bounds, are as they were
+            }
+            draw_band(px, far, near, w, band as u32 * BAND, tris, list);
+        });
+    map.bins = bins;
+    map.bound_upper_levels();
+    map.bounded = true;
+}
+
+/// One band of [`draw_bands_in_parallel`]: `px` are its rows from `y0`, `far`/`near`
+/// its tile rows' finest bounds.
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn draw_band(
+    px: &mut [f32],
+    far: &mut [f32],
+    near: &mut [f32],
+    w: usize,
+    y0: u32,
+    tris: &[SpanTriangle],
+    list: &[u32],
+) {
+    let y1 = y0 + (px.len() / w) as u32 - 1;
+    for &i in list {
+        tris[i as usize].spans((y0, y1), |y, s| {
+            let at = (y - y0) as usize * w + s.x0 as usize;
+            let end = (at + s.lanes_len()).min(px.len());
+            keep_nearest(&mut px[at..end], &s);
+            true
+        });
+    }
+    let t = TILE as usize;
+    let tw = w.div_ceil(t);
+    for (k, rows) in px.chunks(t * w).enumerate() {
+        let tiles = k * tw..(k + 1) * tw;
+        tile_band_bounds(rows, w, &mut far[tiles.clone()], &mut near[tiles]);
+    }
+}
+
 /// `dst[i] = max(dst[i], 1/w of the span's pixel i)`: the nearest fragment wins.
 /// `dst` runs on to the span's [`Span::lanes_len`]; in the last chunk, lanes past the
 /// span hold 0, which leaves a pixel (never below 0) unchanged.
@@ -411,6 +487,14 @@ fn keep_nearest(dst: &mut [f32], s: &Span) {
     }
     if let Some(c) = chunks.next() {
         keep_larger(c, &s.lanes_or(full * LANES, 0.0));
+    } else {
+        // `dst` ends inside the last chunk (the last row of a band drawn on its own):
+        // the span's pixels there are all in it.
+        let rest = chunks.into_remainder();
+        let v = s.lanes_or(full * LANES, 0.0);
+        for (c, &v) in rest.iter_mut().zip(&v) {
+            keep_larger_one(c, v);
+        }
     }
 }
 
@@ -425,10 +509,16 @@ fn keep_nearest(dst: &mut [f32], s: &Span) {
 #[inline(always)]
 fn keep_larger(c: &mut [f32], v: &[f32; LANES]) {
     for k in 0..LANES {
-        let v = if v[k] < f32::INFINITY { v[k] } else { 0.0 };
-        let larger = (c[k].to_bits() as i32).max(v.to_bits() as i32);
-        c[k] = f32::from_bits(larger as u32);
+        keep_larger_one(&mut c[k], v[k]);
     }
+}
+
+/// One lane of [`keep_larger`].
+#[inline(always)]
+fn keep_larger_one(c: &mut f32, v: f32) {
+    let v = if v < f32::INFINITY { v } else { 0.0 };
+    let larger = (c.to_bits() as i32).max(v.to_bits() as i32);
+    *c = f32::from_bits(larger as u32);
 }
 
 /// The bounds of one band of tiles (up to [`TILE`] pixel rows of width `w`): per
@@ -536,5 +626,50 @@ mod tests {
             hidden > 100,
             "only {hidden} hidden rects: the test says little"
         );
+    }
+
+    #[test]
+    fn drawing_bands_in_parallel_gives_the_same_map_and_bounds() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+        // A width that is not a multiple of the lanes and a last band cut short.
+        let (w, h) = (203u32, 150u32);
+        let cam = look_at(Vec3::new(0.0, 0.5, 8.0), Vec3::ZERO, w, h);
+        let mut tri = || {
+            let c = Vec3::new(
+                rng.random_range(-6.0..6.0),
+                rng.random_range(-4.0..4.0),
+                rng.random_range(-6.0..3.0),
+            );
+            let s = rng.random_range(0.1..4.0);
+            [0, 1, 2].map(|_| {
+                c + Vec3::new(
+                    rng.random_range(-s..s),
+                    rng.random_range(-s..s),
+                    rng.random_range(-1.0..1.0),
+                )
+            })
+        };
+        let first: Vec<[Vec3; 3]> = (0..150).map(|_| tri()).collect();
+        let second: Vec<[Vec3; 3]> = (0..10).map(|_| tri()).collect();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(3)
+            .build()
+            .unwrap();
+        let maps = [false, true].map(|parallel| {
+            let mut map = OcclusionMap::default();
+            map.reset(w, h);
+            map.bands_in_parallel = parallel;
+            // A second draw on the bounded map leaves the bands it misses alone.
+            pool.install(|| {
+                map.draw(&cam, first.iter().copied());
+                map.draw(&cam, second.iter().copied());
+            });
+            map
+        });
+        let [seq, par] = &maps;
+        let covered = seq.pixels().iter().filter(|&&v| v > 0.0).count();
+        assert!(covered > 1000, "only {covered} pixels covered");
+        assert!(seq.pixels() == par.pixels(), "pixels differ");
+        assert!(seq.far == par.far && seq.near == par.near, "bounds differ");
     }
 }

@@ -9,7 +9,8 @@
 //! are re-tested per pixel of their own triangles ([`refine`]), a triangle at a time
 //! once the tile bounds cannot show it hidden whole. `exact` is the same spans into
 //! an ID buffer. The poses of a batch run in parallel on rayon's pool (`--threads`),
-//! each on a map kept per thread.
+//! each on a map kept per thread; a batch of fewer poses than threads (one client's
+//! pose on an idle server) also splits each pose's draw by bands of rows.
 //!
 //! Where the work is skipped, the answer is unchanged: an occluder or a triangle is
 //! left out of the draw only when the bounds show every fragment of it losing to the
@@ -88,9 +89,21 @@ pub fn simd_level() -> &'static str {
 impl NativeBackend {
     /// The visibility bitmask of one planned pose.
     pub fn pose_mask(prep: &PreparedScene, p: &PosePlan, s: &CullSettings) -> Vec<u32> {
+        Self::pose_mask_split(prep, p, s, false)
+    }
+
+    /// [`NativeBackend::pose_mask`], drawing the map's bands in parallel on rayon's
+    /// pool with `split` (for a pose with cores to spare: a batch smaller than the
+    /// pool).
+    pub fn pose_mask_split(
+        prep: &PreparedScene,
+        p: &PosePlan,
+        s: &CullSettings,
+        split: bool,
+    ) -> Vec<u32> {
         SCRATCH.with_borrow_mut(|sc| match s.options.method {
             Method::Exact => refine::exact(&mut sc.ids, &prep.scene, &p.cam, &p.candidates),
-            _ => Self::hom(&mut sc.map, prep, p, s),
+            _ => Self::hom(&mut sc.map, prep, p, s, split),
         })
     }
 
@@ -99,9 +112,11 @@ impl NativeBackend {
         prep: &PreparedScene,
         p: &PosePlan,
         s: &CullSettings,
+        split: bool,
     ) -> Vec<u32> {
         let scene = &prep.scene;
         map.reset(p.cam.width, p.cam.height);
+        map.bands_in_parallel = split;
         // Drawing leaves the map bounded: the box test and the refinement read them.
         map.draw_occluders(scene, &p.cam, &p.occluders.ids);
         let mut mask = if s.options.method == Method::Hzb || s.options.threshold < 1.0 {
@@ -175,9 +190,11 @@ impl Culler for NativeBackend {
         plans: &[PosePlan],
         s: &CullSettings,
     ) -> Result<Vec<Vec<u32>>, CullError> {
+        // Fewer poses than threads: each pose's draw splits into bands too.
+        let split = plans.len() < rayon::current_num_threads();
         Ok(plans
             .par_iter()
-            .map(|p| Self::pose_mask(prep, p, s))
+            .map(|p| Self::pose_mask_split(prep, p, s, split))
             .collect())
     }
 }
