@@ -482,8 +482,9 @@ fn keep_nearest(dst: &mut [f32], s: &Span) {
     let pixels = s.pixels();
     let full = pixels / LANES;
     let mut chunks = dst.chunks_exact_mut(LANES);
-    for (n, c) in (&mut chunks).take(full).enumerate() {
-        keep_larger(c, &s.lanes(n * LANES));
+    let mut lanes = s.lanes_from(0);
+    for c in (&mut chunks).take(full) {
+        keep_larger(c, &lanes.next_chunk());
     }
     if let Some(c) = chunks.next() {
         keep_larger(c, &s.lanes_or(full * LANES, 0.0));

@@ -295,6 +295,9 @@ pub struct Span {
 }
 
 impl Span {
+    pub fn slope_f32(&self) -> f32 {
+        self.slope as f32
+    }
     /// Pixels in the span.
     pub fn pixels(&self) -> usize {
         (self.x1 - self.x0 + 1) as usize
@@ -324,6 +327,18 @@ impl Span {
         v
     }
 
+    /// [`Span::lanes`] of the chunks from pixel `x0 + i` on, one chunk after another:
+    /// the f64 base steps by `LANES` pixels with an addition (its rounding, ~1e-16 of
+    /// the base per chunk, stays far below f32's) where `lanes` multiplies anew.
+    #[inline(always)]
+    pub fn lanes_from(&self, i: usize) -> ChunkLanes {
+        ChunkLanes {
+            base: self.start + self.slope * i as f64,
+            step: self.slope * LANES as f64,
+            slope: self.slope as f32,
+        }
+    }
+
     /// `1/w` of pixels `x0 + i + k` for `k` in `0..LANES`, from an f64 base at `x0 + i`.
     #[inline(always)]
     pub fn lanes(&self, i: usize) -> [f32; LANES] {
@@ -333,6 +348,27 @@ impl Span {
         let mut v = [0.0; LANES];
         for k in 0..LANES {
             v[k] = base + s * RAMP[k];
+        }
+        v
+    }
+}
+
+/// The chunks of a span's `1/w`, [`LANES`] pixels at a time ([`Span::lanes_from`]).
+pub struct ChunkLanes {
+    base: f64,
+    step: f64,
+    slope: f32,
+}
+
+impl ChunkLanes {
+    /// The next chunk's `1/w`, as [`Span::lanes`] computes them from its base.
+    #[inline(always)]
+    pub fn next_chunk(&mut self) -> [f32; LANES] {
+        let base = self.base as f32;
+        self.base += self.step;
+        let mut v = [0.0; LANES];
+        for k in 0..LANES {
+            v[k] = base + self.slope * RAMP[k];
         }
         v
     }
@@ -489,6 +525,30 @@ mod tests {
             }
         }
         assert!(rows > 100_000);
+    }
+
+    #[test]
+    fn stepped_chunks_equal_the_multiplied_ones_to_a_rounding() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
+        for _ in 0..2000 {
+            let s = Span {
+                x0: 0,
+                x1: rng.random_range(0..4000),
+                start: rng.random_range(1e-4..2.0),
+                slope: rng.random_range(-1e-3..1e-3),
+            };
+            let mut chunks = s.lanes_from(0);
+            for n in 0..s.pixels() / LANES {
+                let (a, b) = (chunks.next_chunk(), s.lanes(n * LANES));
+                for k in 0..LANES {
+                    let scale = a[k].abs().max(b[k].abs()).max(1e-30);
+                    assert!(
+                        (a[k] - b[k]).abs() <= 2.0 * f32::EPSILON * scale,
+                        "{s:?} at {n}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]
