@@ -265,13 +265,12 @@ impl Camera {
             y[i] = m.x_axis.y * cx + m.y_axis.y * cy + m.z_axis.y * cz + m.w_axis.y;
             d[i] = -(m.x_axis.z * cx + m.y_axis.z * cy + m.z_axis.z * cz + m.w_axis.z);
         }
-        let (mut nearest, mut farthest) = (f32::INFINITY, f32::NEG_INFINITY);
-        for &d in &d {
-            nearest = nearest.min(d);
-            farthest = farthest.max(d);
+        if d.iter().fold(false, |nan, v| nan | v.is_nan()) {
+            return None; // a corner is not a number: the general path
         }
+        let (nearest, farthest) = (least(&d), greatest(&d));
         if nearest < self.near || !farthest.is_finite() {
-            return None; // clipping needed (or no corner is a number: the general path)
+            return None; // clipping needed (or an infinite corner: the general path)
         }
         let (w, h) = (self.width as f32, self.height as f32);
         let (mut sx, mut sy) = ([0.0f32; 8], [0.0f32; 8]);
@@ -279,15 +278,9 @@ impl Camera {
             sx[i] = ((x[i] * self.scale[0] / d[i] + self.shift) * 0.5 + 0.5) * w;
             sy[i] = (0.5 - y[i] * self.scale[1] / d[i] * 0.5) * h;
         }
-        let mut lo = [f32::INFINITY; 2];
-        let mut hi = [f32::NEG_INFINITY; 2];
-        for i in 0..8 {
-            lo = [lo[0].min(sx[i]), lo[1].min(sy[i])];
-            hi = [hi[0].max(sx[i]), hi[1].max(sy[i])];
-        }
         Some(ScreenRect::from_bounds(
-            lo,
-            hi,
+            [least(&sx), least(&sy)],
+            [greatest(&sx), greatest(&sy)],
             self.width,
             self.height,
             nearest,
@@ -442,6 +435,35 @@ impl ScreenRect {
     pub fn height(&self) -> u32 {
         self.y1 - self.y0
     }
+}
+
+/// The least of eight numbers, none NaN, as a tree of compare-and-selects (one
+/// `minps` a level, where `f32::min`'s NaN rule kept the folds one after another);
+/// the same value as folding with `f32::min` (of equal values, a zero's sign may
+/// differ, which no caller tells apart: they round the bounds to pixels).
+#[inline(always)]
+fn least(v: &[f32; 8]) -> f32 {
+    let lo = |a: f32, b: f32| if b < a { b } else { a };
+    let q = [
+        lo(v[0], v[4]),
+        lo(v[1], v[5]),
+        lo(v[2], v[6]),
+        lo(v[3], v[7]),
+    ];
+    lo(lo(q[0], q[2]), lo(q[1], q[3]))
+}
+
+/// The greatest of eight numbers, none NaN, as [`least`].
+#[inline(always)]
+fn greatest(v: &[f32; 8]) -> f32 {
+    let hi = |a: f32, b: f32| if b > a { b } else { a };
+    let q = [
+        hi(v[0], v[4]),
+        hi(v[1], v[5]),
+        hi(v[2], v[6]),
+        hi(v[3], v[7]),
+    ];
+    hi(hi(q[0], q[2]), hi(q[1], q[3]))
 }
 
 /// GPU copy of a camera: one 256-byte slot, so the same buffer serves as a storage array

@@ -206,7 +206,7 @@ impl OcclusionMap {
     /// True if every pixel of `r` holds a `1/w` above `t` (the map was bounded by
     /// [`OcclusionMap::build_bounds`]). `t = (1 + margin) / near` asks whether
     /// occluders lie in front of depth `near` everywhere; `t = 0` whether they cover.
-    #[inline]
+    #[inline(always)]
     pub fn rect_hidden(&self, r: &ScreenRect, t: f32) -> bool {
         let (tx0, ty0) = (r.x0 / TILE, r.y0 / TILE);
         let (tx1, ty1) = ((r.x1 - 1) / TILE, (r.y1 - 1) / TILE);
