@@ -142,7 +142,7 @@ impl SpanTriangle {
         }
         let v0 = self.tri.v[0];
         // Blocks start at multiples of ROWS, so that a triangle drawn band by band
-        // (`map.rs`) computes each of its rows once.
+        // (`map/draw.rs`) computes each of its rows once.
         for block in (y0 - y0 % ROWS as u32..=y1).step_by(ROWS) {
             let (lo, hi) = self.row_block(block, (y0, y1));
             for r in 0..ROWS {

@@ -1,0 +1,259 @@
+//! Drawing into the occlusion map: occluder triangles set up into screen triangles
+//! (leaving out those the bounds already show hidden), then drawn band by band of
+//! rows, each band's tiles bounded as it is finished, one band after another or the
+//! bands of one pose in parallel.
+
+use glam::Vec3;
+
+use super::{OcclusionMap, TILE, front_facing, tile_band_bounds};
+use crate::core::camera::Camera;
+use crate::core::cull::deb::DEPTH_MARGIN;
+use crate::core::native::span::{LANES, Span, SpanTriangle, span_triangles};
+use crate::core::scene::Scene;
+
+/// Triangles whose pixel box is at least this large are first tested against the
+/// tile bounds when drawing into a bounded map: a test costs about as much as a few
+/// rows of spans.
+const SKIP_TEST_MIN_PIXELS: u32 = 64;
+
+/// Rows of the map drawn together ([`draw_binned`]): a band of a 960-pixel-wide map
+/// (120 KB) stays in a core's L2 cache while every triangle reaching it is drawn and
+/// its tiles are bounded. A multiple of [`TILE`].
+const BAND: u32 = 32;
+
+/// The screen triangles of `tris` for drawing into `map`. With `skip_hidden` (the map
+/// is bounded and has only grown nearer since), a large triangle that the bounds show
+/// behind the map everywhere in its box is left out, since each of its fragments
+/// would lose to the pixel it falls on and the map ends the same. (Stale bounds only
+/// make that test answer "not hidden" more often.)
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+pub(super) fn setup_triangles<I: Iterator<Item = [Vec3; 3]>>(
+    map: &OcclusionMap,
+    cam: &Camera,
+    tris: I,
+    skip_hidden: bool,
+    out: &mut Vec<SpanTriangle>,
+) {
+    for tri in tris {
+        push_unhidden(map, cam, tri, skip_hidden, out);
+    }
+}
+
+/// Appends the screen triangles of `tri` to `out`, but (with `skip_hidden`) the large
+/// ones the bounds show hidden ([`setup_triangles`]).
+#[inline(always)]
+fn push_unhidden(
+    map: &OcclusionMap,
+    cam: &Camera,
+    tri: [Vec3; 3],
+    skip_hidden: bool,
+    out: &mut Vec<SpanTriangle>,
+) {
+    span_triangles(cam, tri, |t| {
+        let hidden =
+            skip_hidden && t.box_pixels() >= SKIP_TEST_MIN_PIXELS && map.triangle_hidden(t, 0.0);
+        if !hidden {
+            out.push(*t);
+        }
+        true
+    });
+}
+
+/// The screen triangles of the front faces of occluders `ids` for drawing into `map`,
+/// as [`setup_triangles`]; with `skip_hidden`, an occluder whose box the bounded map
+/// already hides (the box test, margin included) is left out whole ([`OcclusionMap::draw_occluders`]).
+/// Answers the number left out. Loops over the objects' index ranges directly: an
+/// iterator chain over them (flat-map, filter) cost a tenth of the draw.
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+pub(super) fn setup_occluders(
+    map: &OcclusionMap,
+    scene: &Scene,
+    cam: &Camera,
+    ids: &[u32],
+    skip_hidden: bool,
+    out: &mut Vec<SpanTriangle>,
+) -> usize {
+    let eye = cam.position;
+    let p = &scene.positions;
+    let mut skipped = 0;
+    for &id in ids {
+        let o = &scene.objects[id as usize];
+        if skip_hidden
+            && cam
+                .project_box(&o.aabb)
+                .is_none_or(|r| map.rect_hidden(&r, (1.0 + DEPTH_MARGIN) / r.near))
+        {
+            skipped += 1;
+            continue;
+        }
+        for t in scene.triangles_of(o).chunks_exact(3) {
+            let tri = [p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]];
+            if front_facing(eye, &tri) {
+                push_unhidden(map, cam, tri, skip_hidden, out);
+            }
+        }
+    }
+    skipped
+}
+
+/// Draws screen triangles band by band ([`BAND`] rows): each band's pixels are
+/// written by every triangle reaching it, then its tiles are bounded, while they are
+/// in cache (a band no triangle reaches keeps its bounds if the map was bounded
+/// before); the coarser bounds follow. The map keeps the largest `1/w` per pixel,
+/// which does not depend on the order of drawing.
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+pub(super) fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
+    if map.bands_in_parallel && rayon::current_num_threads() > 1 {
+        return draw_bands_in_parallel(map, tris);
+    }
+    let mut order = std::mem::take(&mut map.order);
+    order.clear();
+    order.extend(0..tris.len() as u32);
+    order.sort_unstable_by_key(|&i| tris[i as usize].tri.y0);
+    let mut active: Vec<u32> = Vec::new();
+    let mut next = 0;
+    let w = map.width as usize;
+    for y0 in (0..map.height).step_by(BAND as usize) {
+        let y1 = (y0 + BAND - 1).min(map.height - 1);
+        while let Some(&i) = order.get(next) {
+            if tris[i as usize].tri.y0 > y1 {
+                break;
+            }
+            active.push(i);
+            next += 1;
+        }
+        active.retain(|&i| tris[i as usize].tri.y1 >= y0);
+        if map.bounded && active.is_empty() {
+            continue; // the band's pixels, and so its bounds, are as they were
+        }
+        for &i in &active {
+            tris[i as usize].spans((y0, y1), |y, s| {
+                let at = y as usize * w + s.x0 as usize;
+                keep_nearest(&mut map.inv_w[at..at + s.lanes_len()], &s);
+                true
+            });
+        }
+        for ty in y0 / TILE..=y1 / TILE {
+            map.bound_tile_row(ty);
+        }
+    }
+    map.bound_upper_levels();
+    map.bounded = true;
+    map.order = order;
+}
+
+/// [`draw_binned`] with the bands on rayon's pool: the triangles are binned by band,
+/// then each band is drawn and its tiles bounded by one task, on its own rows of the
+/// map and of the finest bounds (disjoint slices; a span's last chunk that would run
+/// past the band's last row is cut there). Every pixel gets the same maximum as in the
+/// sequential draw, so the map and its bounds are the same.
+fn draw_bands_in_parallel(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
+    use rayon::prelude::*;
+    let (w, h) = (map.width as usize, map.height);
+    let bands = h.div_ceil(BAND) as usize;
+    let mut bins = std::mem::take(&mut map.bins);
+    bins.resize_with(bands, Vec::new);
+    bins.iter_mut().for_each(Vec::clear);
+    for (i, t) in tris.iter().enumerate() {
+        for band in &mut bins[(t.tri.y0 / BAND) as usize..=(t.tri.y1 / BAND) as usize] {
+            band.push(i as u32);
+        }
+    }
+    let tw = map.dims[0].0 as usize;
+    let tile_rows = (BAND / TILE) as usize;
+    let level0 = map.dims[0].0 as usize * map.dims[0].1 as usize;
+    let bounded = map.bounded;
+    let pixels = &mut map.inv_w[..w * h as usize];
+    pixels
+        .par_chunks_mut(BAND as usize * w)
+        .zip(map.far[..level0].par_chunks_mut(tile_rows * tw))
+        .zip(map.near[..level0].par_chunks_mut(tile_rows * tw))
+        .zip(&bins)
+        .enumerate()
+        .for_each(|(band, (((px, far), near), list))| {
+            if bounded && list.is_empty() {
+                return; // the band's pixels, and so its bounds, are as they were
+            }
+            draw_band(px, far, near, w, band as u32 * BAND, tris, list);
+        });
+    map.bins = bins;
+    map.bound_upper_levels();
+    map.bounded = true;
+}
+
+/// One band of [`draw_bands_in_parallel`]: `px` are its rows from `y0`, `far`/`near`
+/// its tile rows' finest bounds.
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn draw_band(
+    px: &mut [f32],
+    far: &mut [f32],
+    near: &mut [f32],
+    w: usize,
+    y0: u32,
+    tris: &[SpanTriangle],
+    list: &[u32],
+) {
+    let y1 = y0 + (px.len() / w) as u32 - 1;
+    for &i in list {
+        tris[i as usize].spans((y0, y1), |y, s| {
+            let at = (y - y0) as usize * w + s.x0 as usize;
+            let end = (at + s.lanes_len()).min(px.len());
+            keep_nearest(&mut px[at..end], &s);
+            true
+        });
+    }
+    let t = TILE as usize;
+    let tw = w.div_ceil(t);
+    for (k, rows) in px.chunks(t * w).enumerate() {
+        let tiles = k * tw..(k + 1) * tw;
+        tile_band_bounds(rows, w, &mut far[tiles.clone()], &mut near[tiles]);
+    }
+}
+
+/// `dst[i] = max(dst[i], 1/w of the span's pixel i)`: the nearest fragment wins.
+/// `dst` runs on to the span's [`Span::lanes_len`]; in the last chunk, lanes past the
+/// span hold 0, which leaves a pixel (never below 0) unchanged.
+#[inline(always)]
+fn keep_nearest(dst: &mut [f32], s: &Span) {
+    let pixels = s.pixels();
+    let full = pixels / LANES;
+    let mut chunks = dst.chunks_exact_mut(LANES);
+    let mut lanes = s.lanes_from(0);
+    for c in (&mut chunks).take(full) {
+        keep_larger(c, &lanes.next_chunk());
+    }
+    if let Some(c) = chunks.next() {
+        keep_larger(c, &s.lanes_or(full * LANES, 0.0));
+    } else {
+        // `dst` ends inside the last chunk (the last row of a band drawn on its own):
+        // the span's pixels there are all in it.
+        let rest = chunks.into_remainder();
+        let v = s.lanes_or(full * LANES, 0.0);
+        for (c, &v) in rest.iter_mut().zip(&v) {
+            keep_larger_one(c, v);
+        }
+    }
+}
+
+/// `c[k] = max(c[k], v[k])` for `1/w` values: compared as the integers of their bits,
+/// which order non-negative floats as the floats do (a negative `v` never wins, and
+/// the map holds no negative value). One integer `max` per lane, where `f32::max`
+/// adds NaN handling (and a compare and select becomes a masked store). A lane that
+/// is not a finite number (its bits would win) is dropped as 0: a lane is a value of
+/// a plane that lies between its vertices' `1/w` (at most `1/near`), so that takes a
+/// slope past f32's range, which f64 coordinates of a triangle covering a pixel
+/// centre do not give; should it happen, the map stays as it was, never nearer.
+#[inline(always)]
+fn keep_larger(c: &mut [f32], v: &[f32; LANES]) {
+    for k in 0..LANES {
+        keep_larger_one(&mut c[k], v[k]);
+    }
+}
+
+/// One lane of [`keep_larger`].
+#[inline(always)]
+fn keep_larger_one(c: &mut f32, v: f32) {
+    let v = if v < f32::INFINITY { v } else { 0.0 };
+    let larger = (c.to_bits() as i32).max(v.to_bits() as i32);
+    *c = f32::from_bits(larger as u32);
+}
