@@ -443,27 +443,25 @@ impl ScreenRect {
 /// differ, which no caller tells apart: they round the bounds to pixels).
 #[inline(always)]
 fn least(v: &[f32; 8]) -> f32 {
-    let lo = |a: f32, b: f32| if b < a { b } else { a };
-    let q = [
-        lo(v[0], v[4]),
-        lo(v[1], v[5]),
-        lo(v[2], v[6]),
-        lo(v[3], v[7]),
-    ];
-    lo(lo(q[0], q[2]), lo(q[1], q[3]))
+    tree_of_eight(v, |a, b| if b < a { b } else { a })
 }
 
 /// The greatest of eight numbers, none NaN, as [`least`].
 #[inline(always)]
 fn greatest(v: &[f32; 8]) -> f32 {
-    let hi = |a: f32, b: f32| if b > a { b } else { a };
+    tree_of_eight(v, |a, b| if b > a { b } else { a })
+}
+
+/// `pick` folded over eight numbers as a tree: halves, then quarters, then the pair.
+#[inline(always)]
+fn tree_of_eight(v: &[f32; 8], pick: impl Fn(f32, f32) -> f32) -> f32 {
     let q = [
-        hi(v[0], v[4]),
-        hi(v[1], v[5]),
-        hi(v[2], v[6]),
-        hi(v[3], v[7]),
+        pick(v[0], v[4]),
+        pick(v[1], v[5]),
+        pick(v[2], v[6]),
+        pick(v[3], v[7]),
     ];
-    hi(hi(q[0], q[2]), hi(q[1], q[3]))
+    pick(pick(q[0], q[2]), pick(q[1], q[3]))
 }
 
 /// GPU copy of a camera: one 256-byte slot, so the same buffer serves as a storage array
