@@ -14,6 +14,8 @@
 //! The WGSL twin of [`Camera::project_box`] is `project_box` in
 //! `gpu/shaders/common.wgsl`; they must stay the same algorithm.
 
+use std::sync::Arc;
+
 use glam::{Mat4, Quat, Vec3, Vec4};
 use homcull_proto::Pose;
 
@@ -72,6 +74,11 @@ pub struct Camera {
     pub shift: f32,
     /// Left, right, bottom, top, near, far; inner side positive.
     pub planes: [Plane; 6],
+    /// The camera whose frustum chooses this camera's occluders, shared by the cameras
+    /// that hold the same one (the eyes of a stereo pose: a frustum enclosing both,
+    /// [`stereo::eyes`]); `None`: this camera's own frustum. Which occluders are drawn
+    /// never decides whether culling is conservative, only how much it culls.
+    pub selection: Option<Arc<Camera>>,
 }
 
 fn finite(name: &'static str, v: &[f32]) -> Result<(), PoseError> {
@@ -195,6 +202,7 @@ impl Camera {
             scale: [proj.x_axis.x, proj.y_axis.y],
             shift,
             planes,
+            selection: None,
         }
     }
 

@@ -14,8 +14,21 @@
 //! its own (its own frustum, occlusion map and tests against the exact oracle's pixel
 //! grid for that eye), and the answer is the union, so an object is left out only when
 //! both eyes' tests leave it out.
+//!
+//! The eyes share one occluder selection ([`Camera::selection`]): the occluders are
+//! chosen once, in the frustum of a camera set back behind the pair so that its
+//! frustum encloses both eyes' ([`selection_camera`]), and each eye draws that same
+//! list into its own map. A shared selection cannot hide anything an eye sees: an
+//! occluder set is only a choice of which objects' own triangles an eye draws, each
+//! drawn from that eye, clipped to its view and compared with its fragments, so the
+//! map holds only real surfaces in front of whatever it hides; choosing other objects
+//! changes how much is culled, never whether culling is conservative. Enclosing both
+//! frusta keeps every occluder either eye could use in the choice (an occluder outside
+//! one eye's frustum draws nothing there).
 
-use glam::Vec3;
+use std::sync::Arc;
+
+use glam::{Mat4, Vec3};
 use homcull_proto::Pose;
 
 use super::{Camera, PoseError};
@@ -45,13 +58,19 @@ pub fn eyes(pose: &Pose) -> Result<Vec<Camera>, PoseError> {
         }
     };
     let right = right_axis(&center);
+    let selection = Arc::new(selection_camera(
+        &center,
+        pose.fov_y_deg,
+        0.5 * ipd,
+        (0.5 * ipd * shift_per_offset).abs(),
+    ));
     [-0.5 * ipd, 0.5 * ipd]
         .into_iter()
         .map(|offset| {
             // Each eye is the mono camera of its own pose (so that culling it is culling
             // that pose, float for float), shifted off-axis when converging.
             let eye = Camera::new(&moved_along(pose, right, offset))?;
-            Ok(match offset * shift_per_offset {
+            let mut eye = match offset * shift_per_offset {
                 0.0 => eye,
                 shift => Camera::from_view_shifted(
                     eye.position,
@@ -63,9 +82,38 @@ pub fn eyes(pose: &Pose) -> Result<Vec<Camera>, PoseError> {
                     eye.far,
                     shift,
                 ),
-            })
+            };
+            eye.selection = Some(selection.clone());
+            Ok(eye)
         })
         .collect()
+}
+
+/// A camera whose frustum encloses those of two eyes `half_ipd` to either side of
+/// `center`, looking its way with its vertical field of view `fov_y_deg`, each
+/// shifted off-axis by at most `shift` in NDC. In the centre's view coordinates an
+/// eye at lateral offset `o` sees `o + t·d` for view depths `d ≥ near` and `|t| ≤ T`,
+/// `T = (1 + shift) / scale_x`; a camera set back by `D = half_ipd / T` with lateral
+/// tangent `T` sees `|x| ≤ T·(d + D)`, which holds there since `|o| ≤ T·D`.
+/// Vertically, being set back only widens what it sees; its near plane stays where
+/// the centre's is (nearer than the eyes' own, `D` behind it) and its far plane moves
+/// back by `D`. The wider tangent comes from a wider viewport (the aspect ratio; the
+/// selection never rasterizes with it).
+fn selection_camera(center: &Camera, fov_y_deg: f32, half_ipd: f32, shift: f32) -> Camera {
+    let lateral = (1.0 + shift) / center.scale[0];
+    let back = half_ipd / lateral;
+    let forward = -center.view.row(2).truncate().normalize();
+    let view = Mat4::from_translation(Vec3::new(0.0, 0.0, -back)) * center.view;
+    let width = (center.width as f32 * (1.0 + shift)).ceil() as u32;
+    Camera::from_view(
+        center.position - forward * back,
+        view,
+        fov_y_deg,
+        width,
+        center.height,
+        center.near,
+        center.far + back,
+    )
 }
 
 /// The mono pose of the eye `offset` metres along `pose`'s right axis, looking the same
@@ -130,6 +178,43 @@ mod tests {
         for cam in [&l, &r] {
             let c = cam.view_proj * far.extend(1.0);
             assert!((c.x / c.w).abs() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn the_shared_selection_frustum_encloses_both_eyes() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        for (ipd, convergence) in [(0.064, None), (0.064, Some(0.5)), (1.0, Some(2.0))] {
+            let mut st = pose(Some(Stereo {
+                ipd_m: ipd,
+                convergence_m: convergence,
+            }));
+            st.far = 60.0;
+            let cams = eyes(&st).unwrap();
+            let sel = cams[0]
+                .selection
+                .clone()
+                .expect("eyes share a selection camera");
+            assert!(Arc::ptr_eq(&sel, cams[1].selection.as_ref().unwrap()));
+            for eye in &cams {
+                let inverse = eye.view_proj.inverse();
+                for _ in 0..4000 {
+                    // A point of the eye's frustum, up to its corners and planes.
+                    let ndc = glam::Vec4::new(
+                        rng.random_range(-1.0..=1.0),
+                        rng.random_range(-1.0..=1.0),
+                        rng.random_range(0.0..=1.0),
+                        1.0,
+                    );
+                    let p = inverse * ndc;
+                    let p = p.truncate() / p.w;
+                    for (i, plane) in sel.planes.iter().enumerate() {
+                        let d = plane.distance(p);
+                        assert!(d >= -1e-3 * (1.0 + p.length()), "plane {i}: {d} at {p}");
+                    }
+                }
+            }
         }
     }
 

@@ -28,7 +28,7 @@ pub mod started;
 pub use error::CullError;
 pub use mask::{clear_bit, empty_mask, has_bit, set_bit, union, words_per_pose};
 pub use pass_times::{Pass, PassMsPerPose, PassTimes};
-pub use plan::{PosePlan, plan, plan_preferring};
+pub use plan::{PosePlan, plan, plan_preferring, plan_with, select_occluders};
 pub use prepared::PreparedScene;
 pub use settings::CullSettings;
 pub use started::{StartedCull, StartedVisibility};

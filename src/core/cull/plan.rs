@@ -58,20 +58,42 @@ pub fn plan_preferring(
     s: &CullSettings,
     prefer: &[u32],
 ) -> PosePlan {
+    let occluders = s
+        .uses_occluders()
+        .then(|| select_occluders(prep, cam, s, prefer));
+    plan_with(prep, cam, s, occluders.unwrap_or_default())
+}
+
+/// The occluders of `cam`: chosen in its selection camera's frustum where it has one
+/// ([`Camera::selection`]), else in its own.
+pub fn select_occluders(
+    prep: &PreparedScene,
+    cam: &Camera,
+    s: &CullSettings,
+    prefer: &[u32],
+) -> OccluderSelection {
+    let chooser = cam.selection.as_deref().unwrap_or(cam);
+    prep.occluders
+        .select_preferring(&prep.scene, chooser, s.budget_triangles, prefer)
+}
+
+/// [`plan`] with its occluders already chosen (shared by the eyes of a stereo pose).
+pub fn plan_with(
+    prep: &PreparedScene,
+    cam: &Camera,
+    s: &CullSettings,
+    occluders: OccluderSelection,
+) -> PosePlan {
     let mut candidates = Vec::new();
     prep.bvh.frustum_query(cam, |i| candidates.push(i));
     candidates.sort_unstable();
     let mut test_boxes = Vec::new();
-    let mut occluders = OccluderSelection::default();
     if s.uses_occluders() {
         for &c in &candidates {
             let (a, b) = prep.scene.box_ranges[c as usize];
             test_boxes
                 .extend((a..b).filter(|&i| cam.intersects(&prep.scene.boxes[i as usize].aabb)));
         }
-        occluders = prep
-            .occluders
-            .select_preferring(&prep.scene, cam, s.budget_triangles, prefer);
     }
     let deb = DepthEstimationBuffer::build(
         s.deb_variant(),

@@ -15,6 +15,7 @@ use homcull_proto::CullStats;
 
 use super::{CullError, CullSettings, Culler, PosePlan, PoseResult, PreparedScene};
 use crate::core::camera::Camera;
+use crate::core::occluders::OccluderSelection;
 
 /// The image-space work of one batch, as [`Culler::start_visibility`] left it.
 #[derive(Debug)]
@@ -62,13 +63,7 @@ pub(super) fn start<C: Culler + ?Sized>(
 ) -> Result<StartedCull, CullError> {
     s.validate()?;
     let started = Instant::now();
-    let plans: Vec<PosePlan> = {
-        use rayon::prelude::*;
-        cams.par_iter()
-            .enumerate()
-            .map(|(k, c)| super::plan_preferring(prep, c, s, prefer.get(k).copied().unwrap_or(&[])))
-            .collect()
-    };
+    let plans = plan_all(prep, cams, s, prefer);
     tracing::debug!(
         target: "homcull::timing",
         poses = cams.len(),
@@ -95,6 +90,50 @@ pub(super) fn start<C: Culler + ?Sized>(
         started,
         image_ms: image.elapsed().as_secs_f64() * 1e3,
     })
+}
+
+/// Plans every camera (in parallel: planning is independent per camera), choosing
+/// the occluders once for each run of consecutive cameras that share a selection
+/// camera (a stereo pose's eyes, [`Camera::selection`]): its first camera's
+/// preference orders the shared choice.
+fn plan_all(
+    prep: &PreparedScene,
+    cams: &[Camera],
+    s: &CullSettings,
+    prefer: &[&[u32]],
+) -> Vec<PosePlan> {
+    use rayon::prelude::*;
+    let prefer_of = |k: usize| prefer.get(k).copied().unwrap_or(&[]);
+    let shares_previous = |k: usize| {
+        k > 0
+            && matches!((&cams[k - 1].selection, &cams[k].selection),
+                (Some(a), Some(b)) if std::sync::Arc::ptr_eq(a, b))
+    };
+    // The first camera of each run chooses; the others take its choice.
+    let leaders: Vec<usize> = (0..cams.len())
+        .filter(|&k| cams[k].selection.is_some() && !shares_previous(k))
+        .collect();
+    let chosen: Vec<OccluderSelection> = leaders
+        .par_iter()
+        .map(|&k| {
+            if s.uses_occluders() {
+                super::select_occluders(prep, &cams[k], s, prefer_of(k))
+            } else {
+                OccluderSelection::default()
+            }
+        })
+        .collect();
+    cams.par_iter()
+        .enumerate()
+        .map(|(k, c)| {
+            if c.selection.is_none() {
+                return super::plan_preferring(prep, c, s, prefer_of(k));
+            }
+            // The run's leader: the last leader at or before k.
+            let run = leaders.partition_point(|&l| l <= k) - 1;
+            super::plan_with(prep, c, s, chosen[run].clone())
+        })
+        .collect()
 }
 
 /// [`Culler::finish_cull`]: waits for the started batches and answers every pose.
@@ -150,4 +189,75 @@ pub(super) fn finish<C: Culler + ?Sized>(
             }
         })
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use homcull_proto::{CullOptions, Pose, Stereo};
+
+    use super::*;
+    use crate::core::camera::stereo;
+    use crate::core::cull::plan_preferring;
+    use crate::core::occluders::OccluderParams;
+    use crate::core::scene::demo_city;
+
+    #[test]
+    fn the_eyes_of_a_stereo_pose_share_one_occluder_choice() {
+        let prep = PreparedScene::new(demo_city(), OccluderParams::default());
+        let s = CullSettings::new(CullOptions::default(), &prep);
+        // Eyes at street height outside the city, looking across it from three sides.
+        let bounds = prep
+            .scene
+            .objects
+            .iter()
+            .fold(prep.scene.objects[0].aabb, |b, o| b.union(o.aabb));
+        let (lo, hi, mid) = (bounds.min, bounds.max, bounds.center());
+        let poses: Vec<Pose> = [
+            [lo.x - 5.0, lo.z - 5.0],
+            [hi.x + 5.0, lo.z - 5.0],
+            [lo.x - 5.0, hi.z + 5.0],
+        ]
+        .into_iter()
+        .map(|[x, z]| Pose {
+            viewport: [320, 180],
+            ..Pose::looking_at([x, lo.y + 1.7, z], [mid.x, lo.y + 1.7, mid.z])
+        })
+        .collect();
+        let stereo_of = |k: usize| {
+            let mut p = poses[k].clone();
+            p.stereo = Some(Stereo {
+                ipd_m: 0.064,
+                convergence_m: Some(2.0),
+            });
+            stereo::eyes(&p).unwrap()
+        };
+        // Two stereo poses, then a mono one.
+        let mut cams = stereo_of(0);
+        cams.extend(stereo_of(1));
+        cams.push(Camera::new(&poses[2]).unwrap());
+        let plans = plan_all(&prep, &cams, &s, &[]);
+        assert_eq!(plans[0].occluders, plans[1].occluders, "first pair");
+        assert_eq!(plans[2].occluders, plans[3].occluders, "second pair");
+        assert_ne!(plans[0].occluders, plans[2].occluders, "each pair its own");
+        assert_eq!(
+            plans[4].occluders,
+            plan_preferring(&prep, &cams[4], &s, &[]).occluders,
+            "a mono camera chooses in its own frustum"
+        );
+        for (k, (p, c)) in plans.iter().zip(&cams).enumerate().take(4) {
+            // Within the budget, the shared choice holds every occluder the eye's own
+            // frustum would choose.
+            let own = Camera {
+                selection: None,
+                ..c.clone()
+            };
+            let own = plan_preferring(&prep, &own, &s, &[]).occluders;
+            assert!(!own.ids.is_empty(), "eye {k} sees occluders");
+            assert!(
+                own.ids.iter().all(|id| p.occluders.ids.contains(id)),
+                "eye {k}: its own occluders are in the shared choice"
+            );
+            assert_eq!(p.cam, *c, "each eye is planned with its own camera");
+        }
+    }
 }
