@@ -96,93 +96,72 @@ pub(super) fn setup_occluders(
     skipped
 }
 
-/// Draws screen triangles band by band ([`BAND`] rows): each band's pixels are
-/// written by every triangle reaching it, then its tiles are bounded, while they are
-/// in cache (a band no triangle reaches keeps its bounds if the map was bounded
-/// before); the coarser bounds follow. The map keeps the largest `1/w` per pixel,
-/// which does not depend on the order of drawing.
-#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
-pub(super) fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
-    if map.bands_in_parallel && rayon::current_num_threads() > 1 {
-        return draw_bands_in_parallel(map, tris);
-    }
-    let mut order = std::mem::take(&mut map.order);
-    order.clear();
-    order.extend(0..tris.len() as u32);
-    order.sort_unstable_by_key(|&i| tris[i as usize].tri.y0);
-    let mut active: Vec<u32> = Vec::new();
-    let mut next = 0;
-    let w = map.width as usize;
-    for y0 in (0..map.height).step_by(BAND as usize) {
-        let y1 = (y0 + BAND - 1).min(map.height - 1);
-        while let Some(&i) = order.get(next) {
-            if tris[i as usize].tri.y0 > y1 {
-                break;
-            }
-            active.push(i);
-            next += 1;
-        }
-        active.retain(|&i| tris[i as usize].tri.y1 >= y0);
-        if map.bounded && active.is_empty() {
-            continue; // the band's pixels, and so its bounds, are as they were
-        }
-        for &i in &active {
-            tris[i as usize].spans((y0, y1), |y, s| {
-                let at = y as usize * w + s.x0 as usize;
-                keep_nearest(&mut map.inv_w[at..at + s.lanes_len()], &s);
-                true
-            });
-        }
-        for ty in y0 / TILE..=y1 / TILE {
-            map.bound_tile_row(ty);
-        }
-    }
-    map.bound_upper_levels();
-    map.bounded = true;
-    map.order = order;
-}
+/// One band's share of [`draw_binned`]'s work: its index, its rows of the map, of the
+/// finest `far` and `near` bounds, and the triangles reaching it.
+type BandSlices<'a> = (
+    usize,
+    (
+        ((&'a mut [f32], &'a mut [f32]), &'a mut [f32]),
+        &'a Vec<u32>,
+    ),
+);
 
-/// [`draw_binned`] with the bands on rayon's pool: the triangles are binned by band,
-/// then each band is drawn and its tiles bounded by one task, on its own rows of the
-/// map and of the finest bounds (disjoint slices; a span's last chunk that would run
-/// past the band's last row is cut there). Every pixel gets the same maximum as in the
-/// sequential draw, so the map and its bounds are the same.
-fn draw_bands_in_parallel(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
+/// Draws screen triangles band by band ([`BAND`] rows): the triangles are binned by
+/// the bands they reach, then each band's pixels are written by every triangle in its
+/// bin and its tiles bounded, while they are in cache (a band no triangle reaches
+/// keeps its bounds if the map was bounded before); the coarser bounds follow. Each
+/// band works on its own rows of the map and of the finest bounds (disjoint slices; a
+/// span's last chunk that would run past the band's last row is cut there), so the
+/// bands of one pose can be drawn in parallel on rayon's pool
+/// ([`OcclusionMap::bands_in_parallel`]). The map keeps the largest `1/w` per pixel,
+/// which depends neither on the order of drawing nor on the split.
+pub(super) fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
     use rayon::prelude::*;
     let (w, h) = (map.width as usize, map.height);
-    let bands = h.div_ceil(BAND) as usize;
     let mut bins = std::mem::take(&mut map.bins);
-    bins.resize_with(bands, Vec::new);
+    bins.resize_with(h.div_ceil(BAND) as usize, Vec::new);
     bins.iter_mut().for_each(Vec::clear);
     for (i, t) in tris.iter().enumerate() {
         for band in &mut bins[(t.tri.y0 / BAND) as usize..=(t.tri.y1 / BAND) as usize] {
             band.push(i as u32);
         }
     }
-    let tw = map.dims[0].0 as usize;
-    let tile_rows = (BAND / TILE) as usize;
+    let tile_rows = (BAND / TILE) as usize * map.dims[0].0 as usize;
     let level0 = map.dims[0].0 as usize * map.dims[0].1 as usize;
     let bounded = map.bounded;
+    let band_rows = BAND as usize * w;
     let pixels = &mut map.inv_w[..w * h as usize];
-    pixels
-        .par_chunks_mut(BAND as usize * w)
-        .zip(map.far[..level0].par_chunks_mut(tile_rows * tw))
-        .zip(map.near[..level0].par_chunks_mut(tile_rows * tw))
-        .zip(&bins)
-        .enumerate()
-        .for_each(|(band, (((px, far), near), list))| {
-            if bounded && list.is_empty() {
-                return; // the band's pixels, and so its bounds, are as they were
-            }
+    let (far, near) = (&mut map.far[..level0], &mut map.near[..level0]);
+    let draw = |(band, (((px, far), near), list)): BandSlices| {
+        if !(bounded && list.is_empty()) {
+            // (Else the band's pixels, and so its bounds, are as they were.)
             draw_band(px, far, near, w, band as u32 * BAND, tris, list);
-        });
+        }
+    };
+    if map.bands_in_parallel && rayon::current_num_threads() > 1 {
+        pixels
+            .par_chunks_mut(band_rows)
+            .zip(far.par_chunks_mut(tile_rows))
+            .zip(near.par_chunks_mut(tile_rows))
+            .zip(&bins)
+            .enumerate()
+            .for_each(draw);
+    } else {
+        pixels
+            .chunks_mut(band_rows)
+            .zip(far.chunks_mut(tile_rows))
+            .zip(near.chunks_mut(tile_rows))
+            .zip(&bins)
+            .enumerate()
+            .for_each(draw);
+    }
     map.bins = bins;
     map.bound_upper_levels();
     map.bounded = true;
 }
 
-/// One band of [`draw_bands_in_parallel`]: `px` are its rows from `y0`, `far`/`near`
-/// its tile rows' finest bounds.
+/// One band of [`draw_binned`]: `px` are its rows from `y0`, `far`/`near` its tile
+/// rows' finest bounds, `list` the triangles reaching it.
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn draw_band(
     px: &mut [f32],

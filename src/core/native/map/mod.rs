@@ -53,16 +53,15 @@ pub struct OcclusionMap {
     far: Vec<f32>,
     /// Largest `1/w` under each texel, all levels.
     near: Vec<f32>,
-    /// The screen triangles of the draw in progress, and their order by first row.
+    /// The screen triangles of the draw in progress.
     setup: Vec<SpanTriangle>,
-    order: Vec<u32>,
     /// Whether every tile's bounds were built since the last reset (then a draw
     /// re-bounds only the bands it wrote to).
     bounded: bool,
     /// Draw the bands of one pose in parallel on rayon's pool (for a pose that has
     /// the cores to itself); the map ends the same either way.
     pub bands_in_parallel: bool,
-    /// The triangles reaching each band, for a parallel draw.
+    /// The triangles reaching each band of the draw in progress.
     bins: Vec<Vec<u32>>,
 }
 
