@@ -119,7 +119,9 @@ impl OcclusionMap {
             .min(ids.len());
         let mut skipped = 0;
         for (part, bounded) in [(&ids[..first], false), (&ids[first..], true)] {
-            if part.is_empty() {
+            // The first draw runs even without occluders: it bounds the cleared map, so
+            // that no bounds of an earlier pose remain.
+            if bounded && part.is_empty() {
                 continue;
             }
             let mut setup = std::mem::take(&mut self.setup);
@@ -381,6 +383,39 @@ mod tests {
             hidden > 100,
             "only {hidden} hidden rects: the test says little"
         );
+    }
+
+    #[test]
+    fn a_pose_without_occluders_keeps_no_bounds_of_the_pose_before() {
+        use crate::core::scene::SceneBuilder;
+        let mut b = SceneBuilder::default();
+        let v = [
+            Vec3::new(-5.0, -5.0, 0.0),
+            Vec3::new(5.0, -5.0, 0.0),
+            Vec3::new(5.0, 5.0, 0.0),
+            Vec3::new(-5.0, 5.0, 0.0),
+        ];
+        b.push("wall".into(), &v, &[0, 1, 2, 0, 2, 3], None);
+        let scene = b.build("t");
+        let (w, h) = (64u32, 48u32);
+        let cam = look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, w, h);
+        let mut map = OcclusionMap::default();
+        let whole = ScreenRect {
+            x0: 0,
+            y0: 0,
+            x1: w,
+            y1: h,
+            near: 1.0,
+            far: 2.0,
+        };
+        map.reset(w, h);
+        map.draw_occluders(&scene, &cam, &[0]);
+        assert!(map.rect_hidden(&whole, 0.0), "the wall covers the view");
+        // The next pose on the same map has no occluders: nothing is covered.
+        map.reset(w, h);
+        map.draw_occluders(&scene, &cam, &[]);
+        assert!(!map.rect_hidden(&whole, 0.0), "bounds of the pose before");
+        assert!(map.pixels().iter().all(|&v| v == 0.0));
     }
 
     #[test]
