@@ -288,9 +288,11 @@ pub fn front_facing(eye: Vec3, t: &[Vec3; 3]) -> bool {
 fn tile_band_bounds(rows: &[f32], w: usize, far: &mut [f32], near: &mut [f32]) {
     const T: usize = TILE as usize;
     let bits = |v: f32| v.to_bits() as i32;
+    // Tiles start at +inf (what `f32::min` folds from), never at bits that are a NaN.
+    let inf = bits(f32::INFINITY);
     let full = w / T;
     for tx in 0..full {
-        let (mut lo, mut hi) = ([i32::MAX; T], [0i32; T]);
+        let (mut lo, mut hi) = ([inf; T], [0i32; T]);
         for row in rows.chunks_exact(w) {
             let px: &[f32; T] = row[tx * T..tx * T + T].try_into().expect("a tile row");
             for k in 0..T {
@@ -298,11 +300,11 @@ fn tile_band_bounds(rows: &[f32], w: usize, far: &mut [f32], near: &mut [f32]) {
                 hi[k] = hi[k].max(bits(px[k]));
             }
         }
-        far[tx] = f32::from_bits(lo.into_iter().fold(i32::MAX, i32::min) as u32);
+        far[tx] = f32::from_bits(lo.into_iter().fold(inf, i32::min) as u32);
         near[tx] = f32::from_bits(hi.into_iter().fold(0, i32::max) as u32);
     }
     if full < far.len() {
-        let (mut lo, mut hi) = (i32::MAX, 0i32);
+        let (mut lo, mut hi) = (inf, 0i32);
         for row in rows.chunks_exact(w) {
             for &v in &row[full * T..] {
                 lo = lo.min(bits(v));
