@@ -421,6 +421,52 @@ mod tests {
     }
 
     #[test]
+    fn a_map_reused_from_pose_to_pose_ends_as_a_fresh_one() {
+        use crate::core::scene::SceneBuilder;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(33);
+        let mut b = SceneBuilder::default();
+        for k in 0..40 {
+            let c = Vec3::new(
+                rng.random_range(-8.0..8.0),
+                rng.random_range(-3.0..3.0),
+                rng.random_range(-12.0..2.0),
+            );
+            let s = rng.random_range(0.3..3.0);
+            let v: Vec<Vec3> = (0..4)
+                .map(|_| c + Vec3::new(rng.random_range(-s..s), rng.random_range(-s..s), 0.3))
+                .collect();
+            b.push(
+                format!("o{k}"),
+                &v,
+                &[0, 1, 2, 0, 2, 3, 2, 1, 0, 3, 2, 0],
+                None,
+            );
+        }
+        let scene = b.build("t");
+        let mut reused = OcclusionMap::default();
+        for pose in 0..60 {
+            // Two viewport sizes, any number of occluders (none included).
+            let (w, h) = [(96u32, 54u32), (61, 37)][rng.random_range(0..2)];
+            let eye = Vec3::new(rng.random_range(-2.0..2.0), 0.0, rng.random_range(5.0..9.0));
+            let cam = look_at(eye, Vec3::new(0.0, 0.0, -4.0), w, h);
+            let n = [0, 1, 5, 40][rng.random_range(0..4)];
+            let mut ids: Vec<u32> = (0..40).collect();
+            rand::seq::SliceRandom::shuffle(&mut ids[..], &mut rng);
+            ids.truncate(n);
+            let mut fresh = OcclusionMap::default();
+            for map in [&mut reused, &mut fresh] {
+                map.reset(w, h);
+                map.draw_occluders(&scene, &cam, &ids);
+            }
+            assert!(reused.pixels() == fresh.pixels(), "pose {pose}: pixels");
+            assert!(
+                reused.far == fresh.far && reused.near == fresh.near,
+                "pose {pose}: bounds"
+            );
+        }
+    }
+
+    #[test]
     fn drawing_bands_in_parallel_gives_the_same_map_and_bounds() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
         // A width that is not a multiple of the lanes and a last band cut short.
