@@ -58,20 +58,20 @@ pub fn plan_preferring(
     s: &CullSettings,
     prefer: &[u32],
 ) -> PosePlan {
-    let occluders = s
-        .uses_occluders()
-        .then(|| select_occluders(prep, cam, s, prefer));
-    plan_with(prep, cam, s, occluders.unwrap_or_default())
+    plan_with(prep, cam, s, select_occluders(prep, cam, s, prefer))
 }
 
 /// The occluders of `cam`: chosen in its selection camera's frustum where it has one
-/// ([`Camera::selection`]), else in its own.
+/// ([`Camera::selection`]), else in its own; none for methods that use none.
 pub fn select_occluders(
     prep: &PreparedScene,
     cam: &Camera,
     s: &CullSettings,
     prefer: &[u32],
 ) -> OccluderSelection {
+    if !s.uses_occluders() {
+        return OccluderSelection::default();
+    }
     let chooser = cam.selection.as_deref().unwrap_or(cam);
     prep.occluders
         .select_preferring(&prep.scene, chooser, s.budget_triangles, prefer)

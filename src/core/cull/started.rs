@@ -115,13 +115,7 @@ fn plan_all(
         .collect();
     let chosen: Vec<OccluderSelection> = leaders
         .par_iter()
-        .map(|&k| {
-            if s.uses_occluders() {
-                super::select_occluders(prep, &cams[k], s, prefer_of(k))
-            } else {
-                OccluderSelection::default()
-            }
-        })
+        .map(|&k| super::select_occluders(prep, &cams[k], s, prefer_of(k)))
         .collect();
     cams.par_iter()
         .enumerate()

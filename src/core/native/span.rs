@@ -295,9 +295,6 @@ pub struct Span {
 }
 
 impl Span {
-    pub fn slope_f32(&self) -> f32 {
-        self.slope as f32
-    }
     /// Pixels in the span.
     pub fn pixels(&self) -> usize {
         (self.x1 - self.x0 + 1) as usize

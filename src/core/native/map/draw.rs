@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use super::{OcclusionMap, TILE, front_facing, tile_band_bounds};
+use super::{OcclusionMap, TILE, bound_tile_rows, front_facing};
 use crate::core::camera::Camera;
 use crate::core::cull::deb::DEPTH_MARGIN;
 use crate::core::native::span::{LANES, Span, SpanTriangle, span_triangles};
@@ -181,12 +181,7 @@ fn draw_band(
             true
         });
     }
-    let t = TILE as usize;
-    let tw = w.div_ceil(t);
-    for (k, rows) in px.chunks(t * w).enumerate() {
-        let tiles = k * tw..(k + 1) * tw;
-        tile_band_bounds(rows, w, &mut far[tiles.clone()], &mut near[tiles]);
-    }
+    bound_tile_rows(px, w, far, near);
 }
 
 /// `dst[i] = max(dst[i], 1/w of the span's pixel i)`: the nearest fragment wins.
@@ -201,14 +196,13 @@ fn keep_nearest(dst: &mut [f32], s: &Span) {
     for c in (&mut chunks).take(full) {
         keep_larger(c, &lanes.next_chunk());
     }
+    let tail = s.lanes_or(full * LANES, 0.0);
     if let Some(c) = chunks.next() {
-        keep_larger(c, &s.lanes_or(full * LANES, 0.0));
+        keep_larger(c, &tail);
     } else {
-        // `dst` ends inside the last chunk (the last row of a band drawn on its own):
-        // the span's pixels there are all in it.
-        let rest = chunks.into_remainder();
-        let v = s.lanes_or(full * LANES, 0.0);
-        for (c, &v) in rest.iter_mut().zip(&v) {
+        // `dst` ends inside the last chunk (the last row of a band): the span's
+        // pixels there are all in it.
+        for (c, &v) in chunks.into_remainder().iter_mut().zip(&tail) {
             keep_larger_one(c, v);
         }
     }

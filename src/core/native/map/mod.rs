@@ -145,26 +145,16 @@ impl OcclusionMap {
 
     /// Builds the tile bounds from the pixels (drawing does it as it goes).
     pub fn build_bounds(&mut self) {
-        for ty in 0..self.dims[0].1 {
-            self.bound_tile_row(ty);
-        }
+        let w = self.width as usize;
+        let level0 = self.dims[0].0 as usize * self.dims[0].1 as usize;
+        bound_tile_rows(
+            &self.inv_w[..w * self.height as usize],
+            w,
+            &mut self.far[..level0],
+            &mut self.near[..level0],
+        );
         self.bound_upper_levels();
         self.bounded = true;
-    }
-
-    /// The finest bounds of tile row `ty` from its pixels.
-    fn bound_tile_row(&mut self, ty: u32) {
-        let (tw, _) = self.dims[0];
-        let w = self.width as usize;
-        let y0 = (ty * TILE) as usize;
-        let y1 = ((ty + 1) * TILE).min(self.height) as usize;
-        let t0 = (ty * tw) as usize;
-        tile_band_bounds(
-            &self.inv_w[y0 * w..y1 * w],
-            w,
-            &mut self.far[t0..t0 + tw as usize],
-            &mut self.near[t0..t0 + tw as usize],
-        );
     }
 
     /// The coarser levels of the bounds from the finest.
@@ -276,6 +266,17 @@ impl OcclusionMap {
 #[inline]
 pub fn front_facing(eye: Vec3, t: &[Vec3; 3]) -> bool {
     (t[1] - t[0]).cross(t[2] - t[0]).dot(t[0] - eye) < 0.0
+}
+
+/// The finest bounds of every tile row of `px` (whole rows of width `w`, starting at a
+/// tile row) into `far`/`near` (those tile rows' bounds, row-major).
+fn bound_tile_rows(px: &[f32], w: usize, far: &mut [f32], near: &mut [f32]) {
+    let t = TILE as usize;
+    let tw = w.div_ceil(t);
+    for (k, rows) in px.chunks(t * w).enumerate() {
+        let tiles = k * tw..(k + 1) * tw;
+        tile_band_bounds(rows, w, &mut far[tiles.clone()], &mut near[tiles]);
+    }
 }
 
 /// The bounds of one band of tiles (up to [`TILE`] pixel rows of width `w`): per
