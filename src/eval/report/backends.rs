@@ -13,16 +13,12 @@ use std::fmt::Write as _;
 
 use anyhow::Result;
 
-use super::context::{Report, over, progress};
+use super::context::{Report, TARGET_SCENES, over, progress};
 use super::scenes::Loaded;
 use super::targets::Target;
 use crate::core::engine::Backend;
 use crate::core::occluders::OccluderParams;
 use crate::eval::{EvalReport, MethodSpec, evaluate};
-
-/// The scenes whose refined efficiency and kept triangles the CPU backend's targets
-/// name.
-const SHARED: [&str; 4] = ["munich", "etoile", "oa_shouse", "oa_dm1"];
 
 /// Section 1b, from section 1's runs (`evals`, in the order of `scenes`).
 pub(super) fn section(r: &mut Report, scenes: &[Loaded], evals: &[EvalReport]) -> Result<()> {
@@ -95,7 +91,7 @@ fn targets(r: &mut Report, rows: &[EvalReport]) {
     });
     let shared: Vec<&EvalReport> = rows
         .iter()
-        .filter(|e| SHARED.contains(&e.scene.as_str()))
+        .filter(|e| TARGET_SCENES.contains(&e.scene.as_str()))
         .collect();
     let worst = |key: fn(&EvalReport) -> f64, lowest: bool| {
         shared

@@ -31,6 +31,9 @@ pub const QUALITY_METHODS: [&str; 6] = [
     "frustum",
 ];
 
+/// The city and game-map scenes whose efficiency the quality targets name.
+pub(super) const TARGET_SCENES: [&str; 4] = ["munich", "etoile", "oa_shouse", "oa_dm1"];
+
 /// Sizes of one run: full or `--quick`.
 #[derive(Debug, Clone)]
 pub(super) struct Plan {

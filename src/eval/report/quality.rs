@@ -6,7 +6,9 @@ use std::fmt::Write as _;
 use anyhow::Result;
 use homcull_proto::DebVariant;
 
-use super::context::{QUALITY_METHODS, Report, THRESHOLDS, over, progress, spec, threshold_name};
+use super::context::{
+    QUALITY_METHODS, Report, TARGET_SCENES, THRESHOLDS, over, progress, spec, threshold_name,
+};
 use super::scenes::Loaded;
 use super::targets;
 use crate::core::camera::Camera;
@@ -178,10 +180,9 @@ fn quality_targets(r: &mut Report, evals: &[EvalReport]) {
             met: unexplained == 0,
         });
     }
-    let shared = ["munich", "etoile", "oa_shouse", "oa_dm1"];
     let worst = evals
         .iter()
-        .filter(|e| shared.contains(&e.scene.as_str()))
+        .filter(|e| TARGET_SCENES.contains(&e.scene.as_str()))
         .filter_map(|e| Some((e.scene.as_str(), e.methods.get("hom-refine")?.efficiency)))
         .min_by(|a, b| a.1.total_cmp(&b.1));
     if let Some((scene, eff)) = worst {
