@@ -19,13 +19,14 @@ const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 const LAYERS: [&str; 4] = ["core", "server", "eval", "cli"];
 
 /// The modules of `core/`, in order: each may use only itself and those before it.
-const CORE: [&str; 13] = [
+const CORE: [&str; 14] = [
     "geom",
     "camera",
     "scene",
     "bvh",
     "occluders",
     "cull",
+    "dynamic",
     "hom",
     "native",
     "gpu",

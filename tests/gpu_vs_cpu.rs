@@ -96,7 +96,7 @@ fn raster_pyramid_and_test_match_cpu() {
         // such edge pixels may go either way; conservativeness against the oracle is the
         // property test's job.
         let mut cpu_refined = cpu_mask.clone();
-        ReferenceBackend::refine(&prep.scene, p, &cpu0, &mut cpu_refined);
+        ReferenceBackend::refine(&prep, p, &cpu0, &mut cpu_refined);
         let g = &gpu_refined[k];
         assert!(
             g.iter().zip(&gpu_masks[k]).all(|(r, b)| r & !b == 0),

@@ -276,6 +276,10 @@ pub struct CullStats {
     pub gpu_ms: f64,
     /// Wall time of the whole cull of this pose's batch, divided by its size.
     pub total_ms: f64,
+    /// The scene version the answer is conservative for: 0 as loaded, one more for
+    /// each accepted `POST /v1/scenes/{id}/transforms`.
+    #[serde(default)]
+    pub scene_version: u64,
 }
 
 /// Answer to one pose: visible object IDs in ascending order and statistics.

@@ -132,3 +132,60 @@ pub struct PoseMessage {
     #[serde(default)]
     pub full: bool,
 }
+
+/// `POST /v1/scenes/{id}/transforms`: new placements (and motion) of objects, applied
+/// all together or not at all.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformsRequest {
+    pub objects: Vec<ObjectTransform>,
+    /// How far ahead (ms) an object with a velocity is bounded (its temporal bounding
+    /// volume); kept for later requests that leave it out. Default 100 ms.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub horizon_ms: Option<f64>,
+}
+
+/// One object's placement relative to where the scene file put it, and its motion.
+///
+/// Either `matrix` (column-major 4×4 affine, applied in world space to the object as
+/// loaded) or any of `translation`, `rotation`, `scale`, which turn and scale the
+/// object about the centre of its loaded bounds and then move it. Neither: the object
+/// goes back to where the file put it. The placement replaces the previous one.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectTransform {
+    pub id: u32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub matrix: Option<[f32; 16]>,
+    /// Metres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub translation: Option<[f32; 3]>,
+    /// Unit quaternion `[x, y, z, w]` (normalised on arrival).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<[f32; 4]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<[f32; 3]>,
+    /// Metres per second: the object may move this way from its new placement.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity: Option<[f32; 3]>,
+    /// Radians per second about the axis it points along, turning the object about
+    /// the centre of its bounds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angular_velocity: Option<[f32; 3]>,
+    /// How long (ms) the motion holds; the bounds cover the shorter of this and the
+    /// horizon. Default: until the next update of the object.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub valid_ms: Option<f64>,
+}
+
+/// Answer to an accepted `POST /v1/scenes/{id}/transforms`.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TransformsResponse {
+    /// The scene version the update made; culls from now on name it or a later one.
+    pub version: u64,
+    /// Objects updated.
+    pub applied: u32,
+}

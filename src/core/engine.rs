@@ -9,7 +9,7 @@
 //! (`core::hom`) is a backend for tests, never chosen by these. Every scene's
 //! [`Engine`] builds its own [`Culler`] from the choice.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use homcull_proto::CullOptions;
 
@@ -17,6 +17,7 @@ use crate::core::camera::Camera;
 use crate::core::cull::{
     CullError, CullSettings, Culler, PassTimes, PoseResult, PreparedScene, StartedCull,
 };
+use crate::core::dynamic::{Dynamics, snapshot};
 use crate::core::gpu::{GpuBackend, GpuContext, GpuError, require_gpu};
 use crate::core::hom::ReferenceBackend;
 use crate::core::native::NativeBackend;
@@ -140,9 +141,16 @@ impl From<Option<Arc<GpuContext>>> for Backend {
 }
 
 pub struct Engine {
-    /// Shared so that read-only work (the pyramid debug view) runs beside the worker.
+    /// The scene at the version culled last. Shared so that read-only work (the
+    /// pyramid debug view) runs beside the worker.
     pub prepared: Arc<PreparedScene>,
     backend: Box<dyn Culler + Send>,
+    /// The scene as loaded, which placements are relative to.
+    base: Arc<PreparedScene>,
+    /// Placements sent by writers; the engine moves to their version when it culls.
+    dynamics: Arc<Mutex<Dynamics>>,
+    /// The version of `prepared`.
+    version: u64,
 }
 
 impl Engine {
@@ -153,10 +161,56 @@ impl Engine {
     /// An engine over an already prepared scene (uploads its buffers to the GPU).
     pub fn from_prepared(prepared: PreparedScene, backend: impl Into<Backend>) -> Self {
         let backend = backend.into();
+        let backend = backend.culler(&prepared);
+        let prepared = Arc::new(prepared);
         Engine {
-            backend: backend.culler(&prepared),
-            prepared: Arc::new(prepared),
+            backend,
+            base: prepared.clone(),
+            dynamics: Arc::new(Mutex::new(Dynamics::new(prepared.clone()))),
+            prepared,
+            version: 0,
         }
+    }
+
+    /// The placements of this scene's objects, for writers to update (see
+    /// `core::dynamic`); the next cull runs on their version.
+    pub fn dynamics(&self) -> Arc<Mutex<Dynamics>> {
+        self.dynamics.clone()
+    }
+
+    /// The version of the scene the last cull ran on.
+    pub fn version(&self) -> u64 {
+        self.version
+    }
+
+    /// Moves to the latest version the writers made, if it is newer.
+    pub fn refresh(&mut self) {
+        let changes = self
+            .dynamics
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .take_changes(self.version);
+        let Some(changes) = changes else { return };
+        let t = std::time::Instant::now();
+        let next = snapshot::advance(&self.base, &self.prepared, &changes);
+        let changed: Vec<u32> = changes.objects.iter().map(|&(id, _)| id).collect();
+        self.backend.scene_changed(&next, &changed);
+        self.prepared = Arc::new(next);
+        self.version = changes.version;
+        tracing::debug!(
+            target: "homcull::timing",
+            version = self.version,
+            objects = changed.len(),
+            ms = t.elapsed().as_secs_f64() * 1e3,
+            "moved the scene"
+        );
+    }
+
+    fn named(&self, mut results: Vec<PoseResult>) -> Vec<PoseResult> {
+        for r in &mut results {
+            r.stats.scene_version = self.version;
+        }
+        results
     }
 
     /// The adapter (or CPU fallback) in use.
@@ -184,7 +238,9 @@ impl Engine {
         cams: &[Camera],
         settings: &CullSettings,
     ) -> Result<Vec<PoseResult>, CullError> {
-        self.backend.cull(&self.prepared, cams, settings)
+        self.refresh();
+        let results = self.backend.cull(&self.prepared, cams, settings)?;
+        Ok(self.named(results))
     }
 
     /// See [`Culler::cull_preferring`].
@@ -194,8 +250,11 @@ impl Engine {
         settings: &CullSettings,
         prefer: &[&[u32]],
     ) -> Result<Vec<PoseResult>, CullError> {
-        self.backend
-            .cull_preferring(&self.prepared, cams, settings, prefer)
+        self.refresh();
+        let results = self
+            .backend
+            .cull_preferring(&self.prepared, cams, settings, prefer)?;
+        Ok(self.named(results))
     }
 
     /// See [`Culler::start_cull`]: plans and submits without waiting for the device.
@@ -205,8 +264,12 @@ impl Engine {
         settings: &CullSettings,
         prefer: &[&[u32]],
     ) -> Result<StartedCull, CullError> {
-        self.backend
-            .start_cull(&self.prepared, cams, settings, prefer)
+        self.refresh();
+        let mut started = self
+            .backend
+            .start_cull(&self.prepared, cams, settings, prefer)?;
+        started.scene_version = self.version;
+        Ok(started)
     }
 
     /// See [`Culler::finish_cull`]: waits for a cull this engine started.

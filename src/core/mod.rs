@@ -8,6 +8,8 @@
 //!   per-pose selection.
 //! - [`cull`]: the seam between callers and backends: the [`cull::Culler`] trait,
 //!   settings, the per-pose plan, pass times and errors.
+//! - [`dynamic`]: moving objects: placements writers send, scene versions, and the
+//!   temporal bounding volumes of objects in motion.
 //! - [`hom`]: the CPU reference backend, the algorithm pass by pass; every GPU pass's
 //!   twin and test oracle.
 //! - [`native`]: the native CPU backend, the same algorithm as spans and tile bounds,
@@ -22,6 +24,7 @@
 pub mod bvh;
 pub mod camera;
 pub mod cull;
+pub mod dynamic;
 pub mod engine;
 pub mod geom;
 pub mod gpu;

@@ -1,6 +1,9 @@
 //! A scene with the structures every backend's planning needs, built once and kept
-//! resident: the object BVH and the occluder database.
+//! resident: the object BVH and the occluder database. A moved scene is another
+//! `PreparedScene` (`core::dynamic` builds it), with the objects that may be moving
+//! marked: their test boxes bound their motion, so only the box test may judge them.
 
+use super::mask::{empty_mask, has_bit};
 use crate::core::bvh::BoxBvh;
 use crate::core::occluders::{OccluderDb, OccluderParams};
 use crate::core::scene::Scene;
@@ -10,6 +13,10 @@ pub struct PreparedScene {
     pub scene: Scene,
     pub bvh: BoxBvh,
     pub occluders: OccluderDb,
+    /// Bitmask of the objects whose test boxes bound a motion (temporal bounding
+    /// volumes): the refinement, which tests an object's own triangles where they are
+    /// now, must leave them as the box test left them. Empty when nothing moves.
+    pub moving: Vec<u32>,
 }
 
 impl PreparedScene {
@@ -26,6 +33,25 @@ impl PreparedScene {
             scene,
             bvh,
             occluders,
+            moving: Vec::new(),
         }
+    }
+
+    /// Marks `ids` as moving (see [`PreparedScene::moving`]).
+    pub fn with_moving(mut self, ids: impl IntoIterator<Item = u32>) -> Self {
+        let mut mask = empty_mask(self.scene.objects.len());
+        let mut any = false;
+        for id in ids {
+            super::mask::set_bit(&mut mask, id);
+            any = true;
+        }
+        self.moving = if any { mask } else { Vec::new() };
+        self
+    }
+
+    /// Whether object `id`'s test boxes bound a motion: only the box test judges it.
+    #[inline]
+    pub fn is_moving(&self, id: u32) -> bool {
+        !self.moving.is_empty() && has_bit(&self.moving, id)
     }
 }

@@ -36,6 +36,8 @@ pub struct StartedCull {
     started: Instant,
     /// Time spent starting and finishing the image-space work, ms.
     image_ms: f64,
+    /// The scene version it culls (set by the engine; answers name it).
+    pub scene_version: u64,
 }
 
 impl StartedCull {
@@ -89,6 +91,7 @@ pub(super) fn start<C: Culler + ?Sized>(
         batches,
         started,
         image_ms: image.elapsed().as_secs_f64() * 1e3,
+        scene_version: 0,
     })
 }
 
@@ -143,6 +146,7 @@ pub(super) fn finish<C: Culler + ?Sized>(
         batches,
         started,
         mut image_ms,
+        scene_version,
     } = started;
     let image = Instant::now();
     let mut masks = Vec::with_capacity(plans.len());
@@ -175,6 +179,7 @@ pub(super) fn finish<C: Culler + ?Sized>(
                 occluder_triangles: p.occluders.triangles,
                 gpu_ms: image_ms / n,
                 total_ms,
+                scene_version,
             };
             PoseResult {
                 visible,

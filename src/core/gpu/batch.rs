@@ -31,6 +31,7 @@ use super::scene_buffers::SceneBuffers;
 use super::targets::{SlotTargets, slots_for};
 use crate::core::cull::{
     CullError, CullSettings, Culler, Pass, PassTimes, PosePlan, PreparedScene, StartedVisibility,
+    has_bit, set_bit,
 };
 
 /// The GPU culler of one scene: its buffers, and the device's shared passes.
@@ -46,6 +47,11 @@ pub struct GpuBackend {
     inputs: BatchInputs,
     /// Batches submitted and not yet read back.
     in_flight: InFlight,
+    /// Bitmask of the scene's moving objects (`PreparedScene::moving`; empty: none).
+    moving: Vec<u32>,
+    /// Per batch in flight without indirect draws: each pose's moving candidates,
+    /// answered visible after the readback (see [`GpuBackend::moving_candidates`]).
+    unfiltered: std::collections::VecDeque<(u64, Vec<Vec<u32>>)>,
 }
 
 /// Locks the shared atlas (serialising batches on this device), sized for `plans`:
@@ -84,12 +90,28 @@ impl GpuBackend {
             profile: None,
             inputs: BatchInputs::new(),
             in_flight: InFlight::new(),
+            moving: prep.moving.clone(),
+            unfiltered: std::collections::VecDeque::new(),
             ctx,
         }
     }
 
     pub fn context(&self) -> &GpuContext {
         &self.ctx
+    }
+
+    /// Each pose's moving candidates where the refinement cannot answer them from the
+    /// box test: without indirect draws there is no filter pass, so they are answered
+    /// visible wherever they are candidates (frustum culling only; conservative).
+    fn moving_candidates(&self, plans: &[PosePlan], s: &CullSettings) -> Option<Vec<Vec<u32>>> {
+        if self.ctx.indirect_draws || self.moving.is_empty() || !s.refines() {
+            return None;
+        }
+        let moving = |p: &PosePlan| -> Vec<u32> {
+            let ids = p.candidates.iter().copied();
+            ids.filter(|&id| has_bit(&self.moving, id)).collect()
+        };
+        Some(plans.iter().map(moving).collect())
     }
 
     /// Runs the occluder raster and pyramid of one group of plans (at most one group
@@ -213,8 +235,16 @@ impl GpuBackend {
     ) -> (Encoder<'c>, bool, Option<Stamps>) {
         let started = std::time::Instant::now();
         let exact = s.options.method == Method::Exact;
-        self.inputs
-            .write(ctx, &self.passes, t, &self.scene, &self.draws, plans, s);
+        self.inputs.write(
+            ctx,
+            &self.passes,
+            t,
+            &self.scene,
+            &self.draws,
+            &self.moving,
+            plans,
+            s,
+        );
         let mut encoder = ctx.encoder();
         self.inputs.upload.flush(ctx, &mut encoder);
         let inputs = &self.inputs;
@@ -420,7 +450,11 @@ impl Culler for GpuBackend {
         if plans.is_empty() {
             return Ok(Vec::new());
         }
-        Ok(self.record_and_read(plans, s)?)
+        let mut masks = self.record_and_read(plans, s)?;
+        if let Some(moving) = self.moving_candidates(plans, s) {
+            mark_visible(&mut masks, &moving);
+        }
+        Ok(masks)
     }
 
     /// Submits the batch and returns; profiling batches are read back at once (their
@@ -436,7 +470,11 @@ impl Culler for GpuBackend {
                 self.visibility(prep, plans, s)?,
             ));
         }
-        Ok(StartedVisibility::InFlight(self.start(plans, s)))
+        let ticket = self.start(plans, s);
+        if let Some(moving) = self.moving_candidates(plans, s) {
+            self.unfiltered.push_back((ticket, moving));
+        }
+        Ok(StartedVisibility::InFlight(ticket))
     }
 
     fn finish_visibility(
@@ -445,7 +483,34 @@ impl Culler for GpuBackend {
     ) -> Result<Vec<Vec<u32>>, CullError> {
         match started {
             StartedVisibility::Answered(masks) => Ok(masks),
-            StartedVisibility::InFlight(ticket) => Ok(self.in_flight.take(&self.ctx, ticket)?),
+            StartedVisibility::InFlight(ticket) => {
+                let mut masks = self.in_flight.take(&self.ctx, ticket)?;
+                while let Some((t, moving)) = self.unfiltered.pop_front() {
+                    if t == ticket {
+                        mark_visible(&mut masks, &moving);
+                        break;
+                    }
+                    if t > ticket {
+                        self.unfiltered.push_front((t, moving));
+                        break;
+                    }
+                }
+                Ok(masks)
+            }
+        }
+    }
+
+    fn scene_changed(&mut self, prep: &PreparedScene, changed: &[u32]) {
+        self.scene.update(&self.ctx, &prep.scene, changed);
+        self.moving = prep.moving.clone();
+    }
+}
+
+/// Sets each pose's `ids` in its mask.
+fn mark_visible(masks: &mut [Vec<u32>], ids: &[Vec<u32>]) {
+    for (mask, ids) in masks.iter_mut().zip(ids) {
+        for &id in ids {
+            set_bit(mask, id);
         }
     }
 }

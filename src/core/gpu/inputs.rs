@@ -73,7 +73,8 @@ impl BatchInputs {
 
     /// Writes everything the batch `plans` needs on the atlas `t` under `s`, and makes
     /// (or keeps) the bind groups its passes record with. `objects` holds every
-    /// object's `(first_index, index_count)`.
+    /// object's `(first_index, index_count)`; `moving` is the bitmask of moving
+    /// objects (`PreparedScene::moving`).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn write(
         &mut self,
@@ -82,6 +83,7 @@ impl BatchInputs {
         t: &SlotTargets,
         scene: &SceneBuffers,
         objects: &[(u32, u32)],
+        moving: &[u32],
         plans: &[PosePlan],
         s: &CullSettings,
     ) {
@@ -156,6 +158,7 @@ impl BatchInputs {
                 &passes.refine,
                 t,
                 scene,
+                moving,
                 objects,
                 plans,
                 &self.groups,

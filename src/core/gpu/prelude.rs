@@ -15,6 +15,9 @@ pub const LINEAR_WORKGROUP: u32 = 64;
 pub const GRID_WORKGROUP: u32 = 8;
 /// Cleared ID: no object at this pixel.
 pub const NO_OBJECT: u32 = u32::MAX;
+/// Set in a refinement pair's object ID: a moving object, which the box test alone
+/// judges (object IDs stay below it: scenes are bounded far lower).
+pub const MOVING_OBJECT: u32 = 1 << 31;
 
 /// The box test's method code (`TestConfig::method`).
 pub fn method_code(method: Method) -> u32 {
@@ -47,6 +50,7 @@ pub fn wgsl() -> String {
          const DEB_TILES: u32 = {}u;\n\
          const DEB_RASTER: u32 = {}u;\n\
          const NO_OBJECT: u32 = {NO_OBJECT}u;\n\
+         const MOVING_OBJECT: u32 = {MOVING_OBJECT}u;\n\
          const LINEAR_WORKGROUP: u32 = {LINEAR_WORKGROUP}u;\n\
          const GRID_WORKGROUP: u32 = {GRID_WORKGROUP}u;\n",
         method_code(Method::Hom),
@@ -94,7 +98,7 @@ mod tests {
             .filter_map(|l| l.strip_prefix("const "))
             .map(|l| l.split(':').next().unwrap())
             .collect();
-        assert_eq!(shared.len(), 11);
+        assert_eq!(shared.len(), 12);
         for k in kernels {
             for name in &shared {
                 assert!(!k.contains(&format!("const {name}")), "{name} is generated");

@@ -28,12 +28,13 @@ use super::device::GpuDevice;
 use super::encode::{
     UNIFORM_SLOT, record_wide, slotted, storage_entry, uniform_entry, uniform_slot,
 };
+use super::prelude::MOVING_OBJECT;
 use super::raster::{
     DRAW_ARGS_BYTES, DepthTest, DrawList, RasterPass, object_draws, triangle_pipeline,
 };
 use super::scene_buffers::SceneBuffers;
 use super::targets::{DepthUse, SlotTargets};
-use crate::core::cull::PosePlan;
+use crate::core::cull::{PosePlan, has_bit};
 
 /// `FilterParams` in `refine.wgsl`: one group's indirect draws, a uniform slot each.
 #[repr(C)]
@@ -77,6 +78,7 @@ impl RefinePass {
                 storage_entry(4, true),
                 storage_entry(5, false),
                 storage_entry(6, false),
+                storage_entry(7, false),
             ],
         );
         let filter = ctx.compute_pipeline(&filter_pl, &module, "filter_draws");
@@ -199,7 +201,8 @@ impl RefineInputs {
 
     /// Writes a batch's refinement inputs and binds them on `t` with the box test's
     /// bitmask `box_mask`. `object_ranges` holds every object's `(first_index,
-    /// index_count)`.
+    /// index_count)`, `moving` the bitmask of moving objects (empty: none), which
+    /// are answered by the box test alone.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn write(
         &mut self,
@@ -208,6 +211,7 @@ impl RefineInputs {
         pass: &RefinePass,
         t: &SlotTargets,
         scene: &SceneBuffers,
+        moving: &[u32],
         object_ranges: &[(u32, u32)],
         plans: &[PosePlan],
         groups: &[(u32, u32)],
@@ -216,6 +220,7 @@ impl RefineInputs {
     ) {
         self.indirect = gpu.indirect_draws;
         self.compact = gpu.indirect_count;
+        let is_moving = |id: u32| !moving.is_empty() && has_bit(moving, id);
         self.poses = plans.len() as u32;
         self.group_draws.clear();
         if self.indirect {
@@ -227,7 +232,15 @@ impl RefineInputs {
                     .candidates
                     .iter()
                     .filter(|&&id| object_ranges[id as usize].1 > 0);
-                pairs.extend(drawn.map(|&id| [p as u32, id]));
+                // Moving objects are flagged: the filter answers them from the box test.
+                let flagged = |id: u32| {
+                    if is_moving(id) {
+                        id | MOVING_OBJECT
+                    } else {
+                        id
+                    }
+                };
+                pairs.extend(drawn.map(|&id| [p as u32, flagged(id)]));
                 self.ranges.push((first, pairs.len() as u32 - first));
             }
             let params: Vec<FilterParams> = groups
@@ -254,9 +267,14 @@ impl RefineInputs {
                 .reserve(gpu, pairs.len() as u64 * DRAW_ARGS_BYTES);
             self.counts.reserve(gpu, self.poses as u64 * 4);
         } else {
+            // Moving objects are not drawn: `GpuBackend` answers them.
+            let still = |p: &PosePlan| -> Vec<u32> {
+                let ids = p.candidates.iter().copied();
+                ids.filter(|&id| !is_moving(id)).collect()
+            };
             self.direct = plans
                 .iter()
-                .map(|p| object_draws(object_ranges, &p.candidates))
+                .map(|p| object_draws(object_ranges, &still(p)))
                 .collect();
         }
         self.mask_bytes = (plans.len() as u32 * words) as u64 * 4;
@@ -305,6 +323,7 @@ impl RefineInputs {
                 draws.id(),
                 counts.id(),
                 filter_params.id(),
+                refined.id(),
             ];
             filter_bind.get(&key, || {
                 gpu.bind_group(
@@ -318,6 +337,7 @@ impl RefineInputs {
                         pose_first.get().as_entire_binding(),
                         draws.get().as_entire_binding(),
                         counts.get().as_entire_binding(),
+                        refined.get().as_entire_binding(),
                     ],
                 )
             });

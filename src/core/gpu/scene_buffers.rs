@@ -1,7 +1,9 @@
-//! A scene's geometry on the GPU: uploaded once, shared by every pass and pose.
+//! A scene's geometry on the GPU: uploaded once, shared by every pass and pose; when
+//! objects move, their vertices and test boxes are written again in place.
 
 use super::device::GpuDevice;
-use crate::core::scene::Scene;
+use crate::core::dynamic::snapshot::vertex_span;
+use crate::core::scene::{Scene, TestBox};
 
 /// One test box as the test kernel reads it (`TestBox` in `test.wgsl`).
 #[repr(C)]
@@ -31,19 +33,7 @@ impl SceneBuffers {
         if indices.is_empty() {
             indices.extend([0, 0, 0]); // wgpu rejects empty buffers; never drawn
         }
-        let mut boxes: Vec<GpuTestBox> = scene
-            .boxes
-            .iter()
-            .map(|b| GpuTestBox {
-                min_obj: [
-                    b.aabb.min.x,
-                    b.aabb.min.y,
-                    b.aabb.min.z,
-                    f32::from_bits(b.object),
-                ],
-                max: [b.aabb.max.x, b.aabb.max.y, b.aabb.max.z, 0.0],
-            })
-            .collect();
+        let mut boxes: Vec<GpuTestBox> = scene.boxes.iter().map(GpuTestBox::from).collect();
         if boxes.is_empty() {
             boxes.push(bytemuck::Zeroable::zeroed());
         }
@@ -59,7 +49,7 @@ impl SceneBuffers {
             vertices: init(
                 "scene vertices",
                 bytemuck::cast_slice(&verts),
-                wgpu::BufferUsages::VERTEX,
+                wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
             ),
             indices: init(
                 "scene indices",
@@ -69,13 +59,61 @@ impl SceneBuffers {
             boxes: init(
                 "scene test boxes",
                 bytemuck::cast_slice(&boxes),
-                wgpu::BufferUsages::STORAGE,
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             ),
             objects: init(
                 "scene objects",
                 bytemuck::cast_slice(&objects),
                 wgpu::BufferUsages::STORAGE,
             ),
+        }
+    }
+}
+
+impl From<&TestBox> for GpuTestBox {
+    fn from(b: &TestBox) -> Self {
+        GpuTestBox {
+            min_obj: [
+                b.aabb.min.x,
+                b.aabb.min.y,
+                b.aabb.min.z,
+                f32::from_bits(b.object),
+            ],
+            max: [b.aabb.max.x, b.aabb.max.y, b.aabb.max.z, 0.0],
+        }
+    }
+}
+
+impl SceneBuffers {
+    /// Writes the vertices and test boxes of the objects `changed` from `scene` (the
+    /// same scene moved: same objects, index ranges and box counts). The writes reach
+    /// the GPU before the next submission and after every earlier one (the queue
+    /// orders them), so a batch in flight keeps the version it was recorded with.
+    pub fn update(&self, gpu: &GpuDevice, scene: &Scene, changed: &[u32]) {
+        const VERTEX: u64 = 12;
+        const BOX: u64 = std::mem::size_of::<GpuTestBox>() as u64;
+        for &id in changed {
+            let o = &scene.objects[id as usize];
+            if let Some((a, b)) = vertex_span(scene, o) {
+                let verts: Vec<[f32; 3]> = scene.positions[a..=b]
+                    .iter()
+                    .map(|p| p.to_array())
+                    .collect();
+                gpu.queue.write_buffer(
+                    &self.vertices,
+                    a as u64 * VERTEX,
+                    bytemuck::cast_slice(&verts),
+                );
+            }
+            let (lo, hi) = scene.box_ranges[id as usize];
+            if hi > lo {
+                let boxes: Vec<GpuTestBox> = scene.boxes[lo as usize..hi as usize]
+                    .iter()
+                    .map(GpuTestBox::from)
+                    .collect();
+                gpu.queue
+                    .write_buffer(&self.boxes, lo as u64 * BOX, bytemuck::cast_slice(&boxes));
+            }
         }
     }
 }

@@ -49,8 +49,8 @@ impl ReferenceBackend {
     }
 
     /// See [`refine::refine`].
-    pub fn refine(scene: &Scene, p: &PosePlan, occluders: &[f32], mask: &mut [u32]) {
-        refine::refine(scene, p, occluders, mask)
+    pub fn refine(prep: &PreparedScene, p: &PosePlan, occluders: &[f32], mask: &mut [u32]) {
+        refine::refine(prep, p, occluders, mask)
     }
 
     /// See [`oracle::exact`].
@@ -81,7 +81,7 @@ impl Culler for ReferenceBackend {
                     let (opacity, depth) = pyramid::build(&layout, &occluders);
                     let mut mask = Self::test_boxes(scene, p, s, &layout, &opacity, &depth);
                     if s.refines() {
-                        refine::refine(scene, p, &occluders, &mut mask);
+                        refine::refine(prep, p, &occluders, &mut mask);
                     }
                     mask
                 }

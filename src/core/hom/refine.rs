@@ -4,7 +4,7 @@
 
 use super::raster::raster_triangle;
 use crate::core::camera::Camera;
-use crate::core::cull::{PosePlan, clear_bit, has_bit};
+use crate::core::cull::{PosePlan, PreparedScene, clear_bit, has_bit};
 use crate::core::scene::Scene;
 
 /// True if every pixel centre the object covers lies strictly behind the occluder
@@ -25,10 +25,13 @@ pub fn hidden_per_pixel(scene: &Scene, cam: &Camera, occluders: &[f32], id: u32)
 }
 
 /// Clears the bit of every candidate that passed the box test but is hidden at each of
-/// its own pixels. GPU twin: `fs_refine` in `gpu/shaders/raster.wgsl`.
-pub fn refine(scene: &Scene, p: &PosePlan, occluders: &[f32], mask: &mut [u32]) {
+/// its own pixels; moving objects are left as the box test left them (their boxes bound
+/// a motion, their triangles do not). GPU twin: `fs_refine` in
+/// `gpu/shaders/raster.wgsl`.
+pub fn refine(prep: &PreparedScene, p: &PosePlan, occluders: &[f32], mask: &mut [u32]) {
+    let scene = &prep.scene;
     for &c in &p.candidates {
-        if has_bit(mask, c) && hidden_per_pixel(scene, &p.cam, occluders, c) {
+        if has_bit(mask, c) && !prep.is_moving(c) && hidden_per_pixel(scene, &p.cam, occluders, c) {
             clear_bit(mask, c);
         }
     }

@@ -133,7 +133,11 @@ impl NativeBackend {
         };
         if s.refines() {
             for &c in &p.candidates {
-                if has_bit(&mask, c) && refine::hidden_per_pixel(map, scene, &p.cam, c) {
+                // A moving object's boxes bound its motion; its triangles do not.
+                if has_bit(&mask, c)
+                    && !prep.is_moving(c)
+                    && refine::hidden_per_pixel(map, scene, &p.cam, c)
+                {
                     clear_bit(&mut mask, c);
                 }
             }

@@ -3,7 +3,9 @@
 // raster.wgsl). Compacting (`compact`, where the adapter draws with an indirect count):
 // each survivor is appended to its pose's region and counted, so the raster issues
 // only survivors. Otherwise every candidate keeps its place with an instance count of
-// 1 (survivor) or 0.
+// 1 (survivor) or 0. A moving object (`MOVING_OBJECT` set in its pair) is never drawn:
+// its test boxes bound its motion and its triangles do not, so the box test's answer
+// is final and a survivor's bit is set in the refined mask here.
 
 struct FilterParams {
     first_draw: u32,     // first draw of the group
@@ -28,6 +30,7 @@ struct DrawArgs {
 @group(0) @binding(4) var<storage, read> pose_first: array<u32>; // a pose's first draw
 @group(0) @binding(5) var<storage, read_write> draws: array<DrawArgs>;
 @group(0) @binding(6) var<storage, read_write> counts: array<atomic<u32>>;
+@group(0) @binding(7) var<storage, read_write> refined: array<atomic<u32>>;
 
 @compute @workgroup_size(LINEAR_WORKGROUP, 1, 1)
 fn filter_draws(
@@ -42,8 +45,18 @@ fn filter_draws(
     let i = fp.first_draw + k;
     let d = draw_objects[i];
     let pose = d.x;
-    let id = d.y;
-    let kept = (box_mask[pose * fp.words_per_pose + id / 32u] & (1u << (id % 32u))) != 0u;
+    let id = d.y & ~MOVING_OBJECT;
+    let word = pose * fp.words_per_pose + id / 32u;
+    let kept = (box_mask[word] & (1u << (id % 32u))) != 0u;
+    if (d.y & MOVING_OBJECT) != 0u {
+        if kept {
+            atomicOr(&refined[word], 1u << (id % 32u));
+        }
+        if fp.compact == 0u {
+            draws[i] = DrawArgs(0u, 0u, 0u, 0i, id);
+        }
+        return;
+    }
     let r = object_ranges[id];
     if fp.compact == 0u {
         draws[i] = DrawArgs(r.y, select(0u, 1u, kept), r.x, 0i, id);
