@@ -182,6 +182,9 @@ pub struct ServeArgs {
     /// Most poses in one `cull/batch` request.
     #[arg(long, env = "HOMCULL_MAX_BATCH", default_value_t = Config::default().max_batch)]
     pub max_batch: usize,
+    /// Most objects in one `POST /v1/scenes/{id}/transforms` request.
+    #[arg(long, env = "HOMCULL_MAX_TRANSFORM_OBJECTS", default_value_t = Config::default().max_transform_objects)]
+    pub max_transform_objects: usize,
     /// Largest GLB upload, bytes.
     #[arg(long, env = "HOMCULL_MAX_UPLOAD_BYTES", default_value_t = Config::default().max_upload_bytes)]
     pub max_upload_bytes: usize,
@@ -297,6 +300,7 @@ impl ServeArgs {
                 AuthArg::Cull => AuthScope::Cull,
             },
             max_batch: self.max_batch,
+            max_transform_objects: self.max_transform_objects,
             max_upload_bytes: self.max_upload_bytes,
             max_json_bytes: self.max_json_bytes,
             max_ws_clients: self.max_ws_clients,

@@ -29,6 +29,8 @@ pub struct Config {
     pub auth: AuthScope,
     /// Most poses in one `cull/batch` request.
     pub max_batch: usize,
+    /// Most objects in one `transforms` request.
+    pub max_transform_objects: usize,
     /// Largest GLB upload, bytes.
     pub max_upload_bytes: usize,
     /// Largest JSON request body, bytes.
@@ -109,6 +111,7 @@ impl Default for Config {
             api_token: None,
             auth: AuthScope::Writes,
             max_batch: 1024,
+            max_transform_objects: crate::core::dynamic::DEFAULT_MAX_UPDATE_OBJECTS,
             max_upload_bytes: 256 << 20,
             max_json_bytes: 8 << 20,
             max_ws_clients: 1000,

@@ -67,6 +67,18 @@ impl IntoResponse for ApiError {
     }
 }
 
+impl From<crate::core::dynamic::TransformError> for ApiError {
+    fn from(e: crate::core::dynamic::TransformError) -> Self {
+        use crate::core::dynamic::TransformError as E;
+        let (status, code) = match e {
+            E::TooMany { .. } => (StatusCode::PAYLOAD_TOO_LARGE, "too_many_objects"),
+            E::UnknownObject { .. } => (StatusCode::BAD_REQUEST, "unknown_object"),
+            _ => (StatusCode::BAD_REQUEST, "invalid_transform"),
+        };
+        Self::new(status, code, e.to_string())
+    }
+}
+
 impl From<crate::core::camera::PoseError> for ApiError {
     fn from(e: crate::core::camera::PoseError) -> Self {
         Self::bad_request("invalid_pose", e.to_string())

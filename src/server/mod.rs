@@ -27,6 +27,7 @@ pub mod scenes;
 pub mod state;
 pub mod static_files;
 pub mod store;
+pub mod transforms;
 pub mod worker;
 pub mod ws;
 
@@ -71,6 +72,7 @@ use store::Store;
         routes::delete_scene,
         routes::cull,
         routes::cull_batch,
+        transforms::transforms,
         routes::occluders,
         routes::pyramid,
         ws::stream
@@ -88,6 +90,9 @@ use store::Store;
         homcull_proto::ObjectInfo,
         homcull_proto::ObjectList,
         homcull_proto::CullRequest,
+        homcull_proto::TransformsRequest,
+        homcull_proto::ObjectTransform,
+        homcull_proto::TransformsResponse,
         homcull_proto::BatchRequest,
         homcull_proto::BatchResponse,
         homcull_proto::ErrorBody,
@@ -164,6 +169,16 @@ pub fn app(state: AppState) -> Router {
                 .route_layer(from_fn_with_state(
                     state.clone(),
                     guard::require_token_on_culls,
+                )),
+        )
+        .route(
+            "/v1/scenes/{id}/transforms",
+            post(transforms::transforms)
+                .layer(json_limit)
+                .route_layer(from_fn(guard::require_json))
+                .route_layer(from_fn_with_state(
+                    state.clone(),
+                    guard::require_token_on_writes,
                 )),
         )
         .route("/v1/scenes/{id}/stream", get(ws::stream))

@@ -80,7 +80,7 @@ pub struct UploadQuery {
     pub name: Option<String>,
 }
 
-fn body_error(e: BytesRejection) -> ApiError {
+pub(super) fn body_error(e: BytesRejection) -> ApiError {
     if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
         ApiError::new(
             e.status(),

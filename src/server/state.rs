@@ -13,6 +13,7 @@ use super::config::Config;
 use super::error::ApiError;
 use super::store::{OccluderCache, Store};
 use super::worker::{SharedEngine, WorkerHandle};
+use crate::core::dynamic::Dynamics;
 use crate::core::engine::Backend;
 use crate::core::geom::Aabb;
 use crate::core::occluders::OccluderParams;
@@ -61,16 +62,18 @@ pub struct SceneEntry {
     pub read_only: bool,
     /// Culled on by the worker's jobs, which hold it, not this entry.
     pub engine: SharedEngine,
+    /// Where writers move the scene's objects (the engine follows when it culls).
+    pub dynamics: Arc<Mutex<Dynamics>>,
 }
 
 impl SceneEntry {
-    /// Object `id`'s world bounds (as the object table gives them to clients).
+    /// Object `id`'s world bounds where it is placed now (the object table gives
+    /// them as loaded).
     pub fn object_bounds(&self, id: u32) -> Aabb {
-        let [min, max] = self.objects[id as usize].aabb;
-        Aabb {
-            min: min.into(),
-            max: max.into(),
-        }
+        self.dynamics
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .bounds(id)
     }
 
     /// Makes a scene resident (occluders from `cache` when it fits) on `backend`.
@@ -110,6 +113,7 @@ impl SceneEntry {
             objects: resident.objects,
             glb,
             read_only,
+            dynamics: resident.engine.dynamics(),
             engine: Arc::new(Mutex::new(resident.engine)),
         }
     }

@@ -147,6 +147,17 @@ impl Dynamics {
         Ok(self.version)
     }
 
+    /// Object `id`'s bounds at its placement now (a box around its loaded bounds
+    /// moved; no motion): for what needs where an object is, not exactly (levels of
+    /// detail, statistics).
+    pub fn bounds(&self, id: u32) -> crate::core::geom::Aabb {
+        let loaded = self.base.scene.objects[id as usize].aabb;
+        match self.placements.get(id as usize).copied().flatten() {
+            Some(p) => snapshot::transformed_box(&p.matrix, loaded),
+            None => loaded,
+        }
+    }
+
     /// The changes since the last call, or `None` if the version did not move since
     /// `seen`.
     pub fn take_changes(&mut self, seen: u64) -> Option<Changes> {

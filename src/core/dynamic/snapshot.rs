@@ -127,7 +127,7 @@ fn place(base: &Scene, scene: &mut Scene, id: u32, p: Option<&Placement>, horizo
 /// A box holding every point of `b` transformed by `m` in f32: the box of the
 /// transformed corners, widened by a bound on the rounding of `m * v` (a few ulps of
 /// the magnitudes summed), so that each vertex as the snapshot computes it is inside.
-fn transformed_box(m: &Mat4, b: Aabb) -> Aabb {
+pub fn transformed_box(m: &Mat4, b: Aabb) -> Aabb {
     if b.is_empty() {
         return b;
     }
