@@ -52,6 +52,37 @@ impl BoxBvh {
         }
     }
 
+    /// The same tree over `boxes` moved (the same list, each box anywhere but empty
+    /// exactly where it was): leaves take their boxes' union and every inner node its
+    /// children's (a refit, linear in the nodes). Queries answer as a fresh build's
+    /// would; only their speed suffers when boxes moved far. `None` when the list's
+    /// length or its empty boxes differ.
+    pub fn refitted(&self, boxes: &[Aabb]) -> Option<BoxBvh> {
+        let same = boxes.len() == self.boxes.len()
+            && boxes
+                .iter()
+                .zip(&self.boxes)
+                .all(|(a, b)| a.is_empty() == b.is_empty());
+        if !same {
+            return None;
+        }
+        let mut bvh = self.bvh.clone();
+        for node in bvh.nodes.iter_mut().filter(|n| n.is_leaf()) {
+            let slots = node.first_index as usize..(node.first_index + node.prim_count) as usize;
+            let union = self.bvh.primitive_indices[slots]
+                .iter()
+                .map(|&p| boxes[self.items[p as usize] as usize])
+                .fold(Aabb::EMPTY, Aabb::union);
+            node.set_aabb(union.to_obvhs());
+        }
+        bvh.refit_all();
+        Some(BoxBvh {
+            bvh,
+            items: self.items.clone(),
+            boxes: boxes.to_vec(),
+        })
+    }
+
     /// Calls `f` with the index of every box that intersects the camera's frustum
     /// (conservatively: see [`Camera::intersects`]).
     pub fn frustum_query(&self, cam: &Camera, mut f: impl FnMut(u32)) {
@@ -206,6 +237,54 @@ mod tests {
             assert_eq!(got, want);
             assert!(!got.is_empty());
         }
+    }
+
+    #[test]
+    fn a_refitted_tree_answers_as_a_fresh_build() {
+        let at = |c: Vec3, h: f32| Aabb::new(c - h, c + h);
+        let boxes: Vec<Aabb> = (0..3000)
+            .map(|i| {
+                let f = i as f32;
+                at(
+                    Vec3::new(
+                        (f * 7.3) % 200.0 - 100.0,
+                        f % 5.0,
+                        (f * 3.1) % 200.0 - 100.0,
+                    ),
+                    1.0,
+                )
+            })
+            .chain([Aabb::EMPTY])
+            .collect();
+        let bvh = BoxBvh::new(&boxes);
+        // Every third box moved, some far.
+        let moved: Vec<Aabb> = boxes
+            .iter()
+            .enumerate()
+            .map(|(i, b)| match i % 3 {
+                0 if !b.is_empty() => {
+                    let d = Vec3::new((i % 17) as f32 * 9.0 - 70.0, 0.0, (i % 11) as f32 * 13.0);
+                    Aabb::new(b.min + d, b.max + d)
+                }
+                _ => *b,
+            })
+            .collect();
+        let refit = bvh.refitted(&moved).expect("same boxes empty");
+        for (eye, target) in [
+            (Vec3::new(0.0, 2.0, 0.0), Vec3::new(10.0, 2.0, 3.0)),
+            (Vec3::new(-120.0, 30.0, -120.0), Vec3::ZERO),
+            (Vec3::new(50.0, 1.0, 90.0), Vec3::new(-40.0, 1.0, 60.0)),
+        ] {
+            let cam = look_at(eye, target, 320, 200);
+            let mut got = Vec::new();
+            refit.frustum_query(&cam, |i| got.push(i));
+            got.sort_unstable();
+            assert_eq!(got, brute(&moved, &cam));
+            assert_ne!(got, brute(&boxes, &cam), "the move changes the answer");
+        }
+        let mut emptied = moved.clone();
+        emptied[0] = Aabb::EMPTY;
+        assert!(bvh.refitted(&emptied).is_none());
     }
 
     /// Every box the frustum meets, by brute force.

@@ -78,6 +78,22 @@ impl OccluderDb {
         OccluderDb { params, ids, bvh }
     }
 
+    /// The same occluders in `scene` moved: the BVH refitted to their new bounds, or
+    /// built again when `rebuild` (or when an occluder's bounds became empty).
+    pub fn moved(&self, scene: &Scene, rebuild: bool) -> Self {
+        let boxes: Vec<_> = self
+            .ids
+            .iter()
+            .map(|&i| scene.objects[i as usize].aabb)
+            .collect();
+        let refit = (!rebuild).then(|| self.bvh.refitted(&boxes)).flatten();
+        OccluderDb {
+            params: self.params,
+            ids: self.ids.clone(),
+            bvh: refit.unwrap_or_else(|| BoxBvh::new(&boxes)),
+        }
+    }
+
     /// In-frustum occluders, nearest box centre first, until the budget is spent.
     /// An occluder that alone would overrun the remaining budget is skipped, so smaller
     /// ones behind it can still fill the budget.

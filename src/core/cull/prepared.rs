@@ -17,6 +17,9 @@ pub struct PreparedScene {
     /// volumes): the refinement, which tests an object's own triangles where they are
     /// now, must leave them as the box test left them. Empty when nothing moves.
     pub moving: Vec<u32>,
+    /// Objects moved since `bvh` and the occluders' BVH were built (they were refitted
+    /// since): `core::dynamic` builds them again when this grows large.
+    pub moved_since_build: usize,
 }
 
 impl PreparedScene {
@@ -34,6 +37,7 @@ impl PreparedScene {
             bvh,
             occluders,
             moving: Vec::new(),
+            moved_since_build: 0,
         }
     }
 

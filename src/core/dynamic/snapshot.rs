@@ -1,11 +1,13 @@
 //! The scene at a version: the previous one with the changed objects placed again
 //! from their loaded geometry (never from the previous placement, so rounding does
-//! not accumulate), their bounds and test boxes recomputed, and the BVH and occluder
-//! database rebuilt over the new bounds.
+//! not accumulate), their bounds and test boxes recomputed, and the object BVH and the
+//! occluder database's refitted to the new bounds (built again once many objects
+//! moved).
 
 use glam::{Mat4, Vec3};
 
 use super::{Changes, Placement};
+use crate::core::bvh::BoxBvh;
 use crate::core::cull::{PreparedScene, clear_bit, empty_mask, has_bit, set_bit};
 use crate::core::geom::Aabb;
 use crate::core::occluders::OccluderDb;
@@ -68,6 +70,15 @@ pub fn advance(base: &PreparedScene, previous: &PreparedScene, changes: &Changes
         .objects
         .iter()
         .fold(Aabb::EMPTY, |b, o| b.union(o.aabb));
+    // The trees are refitted (linear, cheap) until a quarter of the objects moved since
+    // they were built: refitting keeps answers exact but lets the boxes of inner nodes
+    // grow loose, which slows queries.
+    let moved = previous.moved_since_build + changes.objects.len();
+    let rebuild = moved * 4 > n;
+    let boxes: Vec<Aabb> = scene.objects.iter().map(|o| o.aabb).collect();
+    let refit = (!rebuild).then(|| previous.bvh.refitted(&boxes)).flatten();
+    let refitted = refit.is_some();
+    let bvh = refit.unwrap_or_else(|| BoxBvh::new(&boxes));
     // Moving objects do not occlude (see the module docs of `core::dynamic`).
     let ids: Vec<u32> = base
         .occluders
@@ -76,9 +87,20 @@ pub fn advance(base: &PreparedScene, previous: &PreparedScene, changes: &Changes
         .copied()
         .filter(|&id| !has_bit(&moving, id))
         .collect();
-    let occluders = OccluderDb::from_ids(&scene, base.occluders.params, ids);
+    let occluders = if ids == previous.occluders.ids {
+        previous.occluders.moved(&scene, !refitted)
+    } else {
+        OccluderDb::from_ids(&scene, base.occluders.params, ids)
+    };
     let moving_ids = (0..n as u32).filter(|&id| has_bit(&moving, id));
-    PreparedScene::with_occluders(scene, occluders).with_moving(moving_ids)
+    PreparedScene {
+        scene,
+        bvh,
+        occluders,
+        moving: Vec::new(),
+        moved_since_build: if refitted { moved } else { 0 },
+    }
+    .with_moving(moving_ids)
 }
 
 /// Places object `id` of `scene` by `p` from its loaded geometry in `base`; returns
