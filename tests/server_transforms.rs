@@ -169,3 +169,145 @@ async fn the_write_token_guards_updates() {
     assert_eq!(r.version, 1);
     srv.stop().await;
 }
+
+/// Two objects trade places at every version: at an odd version A stands in front of
+/// the eye and B behind it, at an even one the other way round. While one writer
+/// sends 200 updates, culls (single and batched) run beside them, and a scene is
+/// uploaded and deleted over and over: every answer names a version, and shows exactly
+/// the one of the two that stands in front at that version (a torn cull would show
+/// both or neither); no update is lost (the versions run 1..=200 in order, and the
+/// last answer names the last one).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn updates_racing_with_culls_uploads_and_deletes_never_tear() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    const UPDATES: u64 = 200;
+    let srv = Arc::new(TestServer::start(|_| {}).await);
+    let http = reqwest::Client::new();
+    let pose = street_walk(1, [160, 90]).remove(0);
+    let cam = Camera::new(&pose).unwrap();
+    let objects: ObjectList = get_json(&http, srv.url("/v1/scenes/demo/objects")).await;
+    let mut solid = objects.objects.iter().filter(|o| {
+        let size = Vec3::from(o.aabb[1]) - Vec3::from(o.aabb[0]);
+        size.min_element() > 0.5 && size.length() < 10.0
+    });
+    let (a, b) = (solid.next().unwrap().clone(), solid.next().unwrap().clone());
+    let right = cam.forward().cross(Vec3::Y).normalize();
+    let shift = move |o: &homcull_proto::ObjectInfo, front: bool, side: f32| {
+        let centre = (Vec3::from(o.aabb[0]) + Vec3::from(o.aabb[1])) * 0.5;
+        let ahead = if front { 10.0 } else { -10.0 };
+        (cam.position + cam.forward() * ahead + right * side - centre).to_array()
+    };
+    let updates: Vec<Value> = (1..=UPDATES)
+        .map(|v| {
+            let odd = v % 2 == 1;
+            json!({"objects": [
+                {"id": a.id, "translation": shift(&a, odd, -2.0)},
+                {"id": b.id, "translation": shift(&b, !odd, 2.0)},
+            ]})
+        })
+        .collect();
+    let done = Arc::new(AtomicBool::new(false));
+
+    let writer = {
+        let (http, srv, done) = (http.clone(), srv.clone(), done.clone());
+        tokio::spawn(async move {
+            for (v, body) in (1..=UPDATES).zip(&updates) {
+                let r: TransformsResponse =
+                    post_json(&http, srv.url("/v1/scenes/demo/transforms"), body).await;
+                assert_eq!(r.version, v, "versions follow the accepted updates");
+                // Paced, so that culls fall between updates (~1.6 s in all).
+                tokio::time::sleep(std::time::Duration::from_millis(8)).await;
+            }
+            done.store(true, Ordering::SeqCst);
+        })
+    };
+    let churn = {
+        let (http, srv, done) = (http.clone(), srv.clone(), done.clone());
+        tokio::spawn(async move {
+            let mut rounds = 0;
+            while !done.load(Ordering::SeqCst) {
+                let up = http
+                    .post(srv.url("/v1/scenes?name=churn"))
+                    .body(common::rest::small_glb())
+                    .send()
+                    .await
+                    .unwrap();
+                assert_eq!(up.status(), 201);
+                let info: homcull_proto::SceneInfo = up.json().await.unwrap();
+                let del = http
+                    .delete(srv.url(&format!("/v1/scenes/{}", info.id)))
+                    .send()
+                    .await
+                    .unwrap();
+                assert_eq!(del.status(), 204);
+                rounds += 1;
+            }
+            rounds
+        })
+    };
+    let (a, b) = (a.id, b.id);
+    let check = move |r: &CullResponse| {
+        let v = r.stats.scene_version;
+        let (has_a, has_b) = (
+            r.visible.binary_search(&a).is_ok(),
+            r.visible.binary_search(&b).is_ok(),
+        );
+        if v > 0 {
+            assert_eq!(
+                (has_a, has_b),
+                (v % 2 == 1, v % 2 == 0),
+                "version {v}: A seen {has_a}, B seen {has_b}"
+            );
+        }
+        v
+    };
+    let mut readers = Vec::new();
+    for batched in [false, true] {
+        let (http, srv, done, pose) = (http.clone(), srv.clone(), done.clone(), pose.clone());
+        readers.push(tokio::spawn(async move {
+            let mut versions = Vec::new();
+            while !done.load(Ordering::SeqCst) {
+                let answers: Vec<CullResponse> = if batched {
+                    let body = json!({"poses": [pose_json(&pose), pose_json(&pose)]});
+                    let r: homcull_proto::BatchResponse =
+                        post_json(&http, srv.url("/v1/scenes/demo/cull/batch"), &body).await;
+                    r.results
+                } else {
+                    let body = json!({"pose": pose_json(&pose)});
+                    vec![post_json(&http, srv.url("/v1/scenes/demo/cull"), &body).await]
+                };
+                versions.extend(answers.iter().map(check));
+            }
+            versions
+        }));
+    }
+    writer.await.unwrap();
+    let rounds = churn.await.unwrap();
+    let mut seen = std::collections::BTreeSet::new();
+    for r in readers {
+        let versions = r.await.unwrap();
+        assert!(
+            versions.windows(2).all(|w| w[0] <= w[1]),
+            "one client's answers never go back a version"
+        );
+        seen.extend(versions);
+    }
+    let last: CullResponse = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/cull"),
+        &json!({"pose": pose_json(&pose)}),
+    )
+    .await;
+    assert_eq!(
+        check(&last),
+        UPDATES,
+        "the last answer names the last update"
+    );
+    eprintln!(
+        "{} distinct versions answered while {UPDATES} updates and {rounds} upload/delete rounds ran",
+        seen.len()
+    );
+    assert!(seen.len() > 10, "culls interleaved with updates: {seen:?}");
+}
