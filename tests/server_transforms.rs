@@ -257,7 +257,7 @@ async fn updates_racing_with_culls_uploads_and_deletes_never_tear() {
         if v > 0 {
             assert_eq!(
                 (has_a, has_b),
-                (v % 2 == 1, v % 2 == 0),
+                (!v.is_multiple_of(2), v.is_multiple_of(2)),
                 "version {v}: A seen {has_a}, B seen {has_b}"
             );
         }
