@@ -311,3 +311,31 @@ async fn updates_racing_with_culls_uploads_and_deletes_never_tear() {
     );
     assert!(seen.len() > 10, "culls interleaved with updates: {seen:?}");
 }
+
+/// The load generator's writer: object transforms at a steady rate while WebSocket
+/// clients stream, all accepted, and the streams keep being answered.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_load_generator_moves_objects_while_clients_stream() {
+    let srv = TestServer::start(|_| {}).await;
+    let report = homcull::eval::loadgen::run(&homcull::eval::loadgen::LoadConfig {
+        url: srv.url(""),
+        scene: "demo".into(),
+        clients: 4,
+        seconds: 1.5,
+        mode: "ws".into(),
+        batch: 1,
+        transforms_per_s: 2000.0,
+    })
+    .await
+    .unwrap();
+    eprintln!("{}", report.summary());
+    assert_eq!((report.errors, report.transform_errors), (0, 0));
+    assert!(report.min_client_poses > 0, "every client was answered");
+    assert!(
+        report.transforms_per_s > 1000.0,
+        "{}",
+        report.transforms_per_s
+    );
+    assert!(report.last_version > 50, "{}", report.last_version);
+    srv.stop().await;
+}

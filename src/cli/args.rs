@@ -357,6 +357,9 @@ pub struct LoadgenArgs {
     /// Poses per REST batch in `batch` mode.
     #[arg(long, default_value_t = 64)]
     pub batch: usize,
+    /// Object transforms per second a writer sends meanwhile (0: none).
+    #[arg(long, default_value_t = 0.0)]
+    pub transforms_per_s: f64,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -409,6 +412,7 @@ impl LoadgenArgs {
             seconds: self.seconds,
             mode: self.mode.clone(),
             batch: self.batch,
+            transforms_per_s: self.transforms_per_s,
         }
     }
 }

@@ -8,7 +8,10 @@
 //! - `batch`: N clients POST `--batch` poses per `/cull/batch` request.
 //!
 //! A side task polls `/healthz` every 50 ms to show how the server answers probes
-//! under load. The run stops by itself after `--seconds`.
+//! under load. With `--transforms-per-s N`, a writer moves objects meanwhile
+//! (`POST /v1/scenes/{id}/transforms` every 10 ms, N/100 objects each, round robin
+//! over an eighth of the scene's objects, every 8th ID, the traffic; each with a
+//! velocity). The run stops by itself after `--seconds`.
 
 use std::time::{Duration, Instant};
 
@@ -36,6 +39,8 @@ pub struct LoadConfig {
     pub mode: String,
     /// Poses per REST batch in `batch` mode.
     pub batch: usize,
+    /// Object transforms to send per second while the load runs (0: none).
+    pub transforms_per_s: f64,
 }
 
 /// What a load run measured.
@@ -60,6 +65,11 @@ pub struct LoadReport {
     pub delta_frames: u64,
     /// Fewest poses any one client got answered (0 = a client starved).
     pub min_client_poses: u64,
+    /// Object transforms the server accepted, per second, and requests it refused.
+    pub transforms_per_s: f64,
+    pub transform_errors: u64,
+    /// The scene version the last transforms request made.
+    pub last_version: u64,
 }
 
 impl LoadReport {
@@ -80,7 +90,14 @@ impl LoadReport {
                 .map(|p| format!("; rtt minus server p50 {:.3}", p.p50))
                 .unwrap_or_default(),
             self.healthz_ms.p99
-        )
+        ) + &if self.last_version > 0 {
+            format!(
+                "; {:.0} object transforms/s applied ({} refused), scene version {}",
+                self.transforms_per_s, self.transform_errors, self.last_version
+            )
+        } else {
+            String::new()
+        }
     }
 }
 
@@ -168,6 +185,9 @@ pub async fn run(a: &LoadConfig) -> Result<LoadReport> {
     if !matches!(a.mode.as_str(), "ws" | "single" | "batch") {
         bail!("--mode must be ws, single or batch");
     }
+    if !(a.transforms_per_s >= 0.0 && a.transforms_per_s <= 10_000_000.0) {
+        bail!("--transforms-per-s must be in [0, 10000000]");
+    }
     let http = http_client()?;
     let res = http
         .get(format!("http://{host}/v1/scenes/{}", a.scene))
@@ -210,6 +230,11 @@ pub async fn run(a: &LoadConfig) -> Result<LoadReport> {
         lat
     });
 
+    let writer = (a.transforms_per_s > 0.0).then(|| {
+        let (host, scene) = (host.clone(), a.scene.clone());
+        let per_request = (a.transforms_per_s / 100.0).ceil() as usize;
+        tokio::spawn(writer(host, scene, info.objects, per_request, deadline))
+    });
     let mut tasks = Vec::new();
     for k in 0..a.clients {
         let poses = poses.clone();
@@ -248,6 +273,10 @@ pub async fn run(a: &LoadConfig) -> Result<LoadReport> {
     }
     let secs = start.elapsed().as_secs_f64();
     let healthz = health.await.unwrap_or_default();
+    let written = match writer {
+        Some(w) => w.await??,
+        None => Written::default(),
+    };
     Ok(LoadReport {
         mode: a.mode.clone(),
         clients: a.clients,
@@ -263,7 +292,62 @@ pub async fn run(a: &LoadConfig) -> Result<LoadReport> {
         full_frames: all.full_frames,
         delta_frames: all.delta_frames,
         min_client_poses,
+        transforms_per_s: written.objects as f64 / secs,
+        transform_errors: written.errors,
+        last_version: written.version,
     })
+}
+
+#[derive(Default)]
+struct Written {
+    objects: u64,
+    errors: u64,
+    version: u64,
+}
+
+/// Every 10 ms until `deadline`, one transforms request moving `per_request` objects
+/// (round robin over every 8th of the scene's `objects`, each a little off its loaded
+/// place and given a velocity of 1 m/s).
+async fn writer(
+    host: String,
+    scene: String,
+    objects: u32,
+    per_request: usize,
+    deadline: Instant,
+) -> Result<Written> {
+    let http = http_client()?;
+    let url = format!("http://{host}/v1/scenes/{scene}/transforms");
+    let mut w = Written::default();
+    let movers = objects.div_ceil(8);
+    let mut next = 0u32;
+    let mut tick = tokio::time::interval(Duration::from_millis(10));
+    let mut step = 0u64;
+    while Instant::now() < deadline {
+        tick.tick().await;
+        step += 1;
+        let offset = (step % 20) as f32 * 0.05;
+        let moved: Vec<serde_json::Value> = (0..per_request.min(movers as usize))
+            .map(|_| {
+                let id = next * 8;
+                next = (next + 1) % movers.max(1);
+                serde_json::json!({"id": id, "translation": [offset, 0.0, 0.0], "velocity": [1.0, 0.0, 0.0]})
+            })
+            .collect();
+        let n = moved.len() as u64;
+        let res = http
+            .post(&url)
+            .json(&serde_json::json!({ "objects": moved }))
+            .send()
+            .await?;
+        if res.status() == 200 {
+            let r: homcull_proto::TransformsResponse = res.json().await?;
+            w.objects += n;
+            w.version = r.version;
+        } else {
+            w.errors += 1;
+        }
+    }
+    Ok(w)
 }
 
 async fn ws_client(

@@ -86,6 +86,7 @@ async fn runs(
             seconds: r.plan.load_seconds,
             mode: mode.into(),
             batch: 64,
+            transforms_per_s: 0.0,
         };
         out.push(crate::eval::loadgen::run(&a).await?);
     }
