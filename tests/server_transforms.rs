@@ -339,3 +339,99 @@ async fn the_load_generator_moves_objects_while_clients_stream() {
     assert!(report.last_version > 50, "{}", report.last_version);
     srv.stop().await;
 }
+
+/// The next message of a stream: a JSON text message or a binary frame.
+async fn next_message(ws: &mut common::ws::Ws) -> Result<Value, homcull_proto::frame::Frame> {
+    use futures_util::StreamExt;
+    use tokio_tungstenite::tungstenite::Message;
+    loop {
+        let msg = tokio::time::timeout(std::time::Duration::from_secs(60), ws.next())
+            .await
+            .expect("a message within 60 s")
+            .expect("stream open")
+            .expect("no socket error");
+        match msg {
+            Message::Text(t) => return Ok(serde_json::from_str(&t).expect("JSON")),
+            Message::Binary(b) => {
+                return Err(homcull_proto::frame::Frame::decode(&b).expect("frame"));
+            }
+            _ => continue,
+        }
+    }
+}
+
+/// A stream with `?placements=true` is told, before the frame culled at a new
+/// version, the version and where the visible moved objects are; an object back home
+/// is told the identity; a stream without the option gets binary frames only.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn streams_that_ask_are_told_where_moved_objects_are() {
+    use futures_util::SinkExt;
+    let srv = TestServer::start(|_| {}).await;
+    let http = reqwest::Client::new();
+    let pose = street_walk(1, [320, 180]).remove(0);
+    let (mut ws, hello) = common::ws::connect_hello(&srv, "?placements=true").await;
+    assert_eq!(hello["placements"], true);
+    let mut plain = common::ws::connect(&srv, "").await;
+    let mut seq = 0;
+    let mut ask = async |ws: &mut common::ws::Ws| {
+        seq += 1;
+        ws.send(common::ws::pose_frame(seq, &pose, true))
+            .await
+            .unwrap();
+        seq
+    };
+    // Version 0: told once, with no objects.
+    ask(&mut ws).await;
+    let first = next_message(&mut ws).await.expect("placements first");
+    assert_eq!(first["placements"]["version"], 0);
+    assert_eq!(first["placements"]["objects"], json!([]));
+    let Err(homcull_proto::frame::Frame::Full(full)) = next_message(&mut ws).await else {
+        panic!("a full frame");
+    };
+    let visible = full.ids;
+    // Move a visible object: told with its matrix.
+    let id = visible[visible.len() / 2];
+    let moved: TransformsResponse = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/transforms"),
+        &json!({"objects": [{"id": id, "translation": [0.0, 0.5, 0.0]}]}),
+    )
+    .await;
+    ask(&mut ws).await;
+    let told = next_message(&mut ws).await.expect("placements");
+    assert_eq!(told["placements"]["version"], moved.version);
+    let objects = told["placements"]["objects"].as_array().unwrap().clone();
+    let entry = objects
+        .iter()
+        .find(|o| o["id"] == id)
+        .expect("the moved object");
+    assert_eq!(entry["matrix"][13], 0.5, "column-major: y translation");
+    assert!(next_message(&mut ws).await.is_err(), "then the frame");
+    // Same version again: nothing to tell, the frame alone.
+    ask(&mut ws).await;
+    assert!(next_message(&mut ws).await.is_err());
+    // Back home: told the identity.
+    post_json::<TransformsResponse>(
+        &http,
+        srv.url("/v1/scenes/demo/transforms"),
+        &json!({"objects": [{"id": id}]}),
+    )
+    .await;
+    ask(&mut ws).await;
+    let home = next_message(&mut ws).await.expect("placements");
+    let entry = home["placements"]["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|o| o["id"] == id)
+        .cloned()
+        .expect("the object back home");
+    assert_eq!(entry["matrix"], json!(glam::Mat4::IDENTITY.to_cols_array()));
+    // A stream that did not ask: binary frames only.
+    plain
+        .send(common::ws::pose_frame(1, &pose, true))
+        .await
+        .unwrap();
+    assert!(next_message(&mut plain).await.is_err());
+    srv.stop().await;
+}

@@ -15,7 +15,7 @@ use homcull_proto::CullOptions;
 
 use crate::core::camera::Camera;
 use crate::core::cull::{
-    CullError, CullSettings, Culler, PassTimes, PoseResult, PreparedScene, StartedCull,
+    CullError, CullSettings, Culler, PassTimes, Placed, PoseResult, PreparedScene, StartedCull,
 };
 use crate::core::dynamic::{Dynamics, snapshot};
 use crate::core::gpu::{GpuBackend, GpuContext, GpuError, require_gpu};
@@ -151,6 +151,9 @@ pub struct Engine {
     dynamics: Arc<Mutex<Dynamics>>,
     /// The version of `prepared`.
     version: u64,
+    /// The placements of `prepared`'s moved objects, and the table answers carry.
+    placements: std::collections::BTreeMap<u32, [f32; 16]>,
+    placed: Option<Placed>,
 }
 
 impl Engine {
@@ -169,6 +172,8 @@ impl Engine {
             dynamics: Arc::new(Mutex::new(Dynamics::new(prepared.clone()))),
             prepared,
             version: 0,
+            placements: Default::default(),
+            placed: None,
         }
     }
 
@@ -197,6 +202,14 @@ impl Engine {
         self.backend.scene_changed(&next, &changed);
         self.prepared = Arc::new(next);
         self.version = changes.version;
+        for (id, p) in &changes.objects {
+            match p {
+                Some(p) => self.placements.insert(*id, p.matrix.to_cols_array()),
+                None => self.placements.remove(id),
+            };
+        }
+        self.placed = (!self.placements.is_empty())
+            .then(|| self.placements.iter().map(|(&id, &m)| (id, m)).collect());
         tracing::debug!(
             target: "homcull::timing",
             version = self.version,
@@ -209,6 +222,7 @@ impl Engine {
     fn named(&self, mut results: Vec<PoseResult>) -> Vec<PoseResult> {
         for r in &mut results {
             r.stats.scene_version = self.version;
+            r.placed = self.placed.clone();
         }
         results
     }
@@ -269,6 +283,7 @@ impl Engine {
             .backend
             .start_cull(&self.prepared, cams, settings, prefer)?;
         started.scene_version = self.version;
+        started.placed = self.placed.clone();
         Ok(started)
     }
 

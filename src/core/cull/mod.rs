@@ -45,7 +45,14 @@ pub struct PoseResult {
     /// The in-frustum objects it was chosen from, ascending.
     pub candidates: Vec<u32>,
     pub stats: CullStats,
+    /// Where the moved objects of the scene version it ran on are: `(object,
+    /// column-major 4×4 matrix relative to the loaded scene)`, ascending; `None` when
+    /// nothing of the scene moved (see `core::dynamic`).
+    pub placed: Option<Placed>,
 }
+
+/// The placements of a scene version's moved objects (see [`PoseResult::placed`]).
+pub type Placed = std::sync::Arc<[(u32, [f32; 16])]>;
 
 impl PoseResult {
     /// One answer for several views of one pose (the eyes of a stereo pose): every

@@ -36,8 +36,10 @@ pub struct StartedCull {
     started: Instant,
     /// Time spent starting and finishing the image-space work, ms.
     image_ms: f64,
-    /// The scene version it culls (set by the engine; answers name it).
+    /// The scene version it culls and its moved objects (set by the engine; answers
+    /// carry them).
     pub scene_version: u64,
+    pub placed: Option<super::Placed>,
 }
 
 impl StartedCull {
@@ -92,6 +94,7 @@ pub(super) fn start<C: Culler + ?Sized>(
         started,
         image_ms: image.elapsed().as_secs_f64() * 1e3,
         scene_version: 0,
+        placed: None,
     })
 }
 
@@ -147,6 +150,7 @@ pub(super) fn finish<C: Culler + ?Sized>(
         started,
         mut image_ms,
         scene_version,
+        placed,
     } = started;
     let image = Instant::now();
     let mut masks = Vec::with_capacity(plans.len());
@@ -185,6 +189,7 @@ pub(super) fn finish<C: Culler + ?Sized>(
                 visible,
                 candidates: p.candidates,
                 stats,
+                placed: placed.clone(),
             }
         })
         .collect())

@@ -13,7 +13,8 @@
 //!
 //! Options in the query string: `method`, `threshold`, `deb` as for `POST /cull`, and the
 //! opt-in smoothing `lookahead_ms` and `hold_ms` ([`super::motion`]), which stream a
-//! superset of the pose's cull.
+//! superset of the pose's cull, and `placements=true`: JSON text messages saying where
+//! moved objects are ([`placements`]).
 //!
 //! A client that stops reading is dropped within the send timeout, not when the kernel's
 //! buffers fill: the sender pings it every quarter of the timeout, and a ping left
@@ -25,6 +26,7 @@
 
 mod frames;
 mod liveness;
+mod placements;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -87,6 +89,16 @@ pub struct StreamQuery {
     /// Level-of-detail thresholds in pixels, largest first (`lod_px=64,16,4`): every
     /// frame then carries a level per object it sends (see `homcull_proto::lod`).
     pub lod_px: Option<String>,
+    /// Before a frame, a JSON text message with the scene version it was culled at and
+    /// where its moved objects are, when either changed (default false).
+    pub placements: Option<bool>,
+}
+
+/// A stream's other choices: occluders seen first, and placements told.
+#[derive(Debug, Clone, Copy)]
+struct Choices {
+    seen_first: bool,
+    placements: bool,
 }
 
 /// How a stream shapes its sets (see [`super::motion`]); both off by default, when the
@@ -139,7 +151,10 @@ pub async fn stream(
             ),
         ));
     }
-    let seen_first = q.seen_first.unwrap_or(false);
+    let choices = Choices {
+        seen_first: q.seen_first.unwrap_or(false),
+        placements: q.placements.unwrap_or(false),
+    };
     super::guard::check_origin(&headers, &state.config.allowed_origins)?;
     if state.config.auth == super::AuthScope::Cull {
         super::guard::check_token(&state, &headers)?;
@@ -159,7 +174,7 @@ pub async fn stream(
         .max_frame_size(MAX_CLIENT_MESSAGE)
         .on_upgrade(move |socket| {
             let slots = (slot, address);
-            client(socket, state, scene, options, smoothing, seen_first, slots)
+            client(socket, state, scene, options, smoothing, choices, slots)
         }))
 }
 
@@ -212,9 +227,11 @@ async fn client(
     scene: Arc<SceneEntry>,
     options: CullOptions,
     smoothing: Smoothing,
-    seen_first: bool,
+    choices: Choices,
     _slots: (WsClientSlot, Option<AddressSlot>),
 ) {
+    let seen_first = choices.seen_first;
+    let mut told = choices.placements.then(placements::Told::default);
     let (sink, mut incoming) = socket.split();
     let sink = Arc::new(Mutex::new(sink));
     let send_timeout = Duration::from_secs(state.config.ws_send_timeout_s);
@@ -231,6 +248,7 @@ async fn client(
             "options": options,
             "smoothing": smoothing,
             "seen_first": seen_first,
+            "placements": choices.placements,
             "full_every": state.config.full_every,
             "max_fps": state.config.ws_max_fps,
         })
@@ -381,6 +399,12 @@ async fn client(
                 message: e.message,
             }),
             Ok(r) => {
+                let told = told.as_mut().and_then(|t| t.message(&r));
+                if let Some(text) = told
+                    && send_text(&sink, text, send_timeout).await.is_err()
+                {
+                    break None;
+                }
                 let stats = frame_stats(&r, mailbox.dropped.swap(0, Ordering::Relaxed), started);
                 let want_full = p.want_full || since_full >= state.config.full_every;
                 let levels = options
@@ -501,8 +525,20 @@ async fn send(sink: &Mutex<Sink>, frame: Frame, timeout: Duration) -> Result<(),
     let kind = frame.kind().name();
     metrics::counter!("homcull_ws_frames_total", "kind" => kind).increment(1);
     metrics::counter!("homcull_ws_frame_bytes_total", "kind" => kind).increment(bytes.len() as u64);
+    send_message(sink, Message::Binary(bytes.into()), timeout).await
+}
+
+/// A text message ([`placements`]).
+async fn send_text(sink: &Mutex<Sink>, text: String, timeout: Duration) -> Result<(), ()> {
+    metrics::counter!("homcull_ws_frames_total", "kind" => "placements").increment(1);
+    metrics::counter!("homcull_ws_frame_bytes_total", "kind" => "placements")
+        .increment(text.len() as u64);
+    send_message(sink, Message::Text(text.into()), timeout).await
+}
+
+async fn send_message(sink: &Mutex<Sink>, message: Message, timeout: Duration) -> Result<(), ()> {
     let mut s = sink.lock().await;
-    match tokio::time::timeout(timeout, s.send(Message::Binary(bytes.into()))).await {
+    match tokio::time::timeout(timeout, s.send(message)).await {
         Ok(Ok(())) => Ok(()),
         Ok(Err(_)) => Err(()),
         Err(_) => {
