@@ -417,7 +417,20 @@ export class HomcullClient extends EventTarget {
   _onMessage(data) {
     this._clearStall();
     if (typeof data === "string") {
-      this._emit("error", { code: "protocol", message: "unexpected text message from the server", fatal: false });
+      // The one text message a server sends: where moved objects are (`?placements=true`).
+      let msg = null;
+      try {
+        msg = JSON.parse(data);
+      } catch {
+        /* reported below */
+      }
+      const p = msg?.placements;
+      if (p && Number.isFinite(p.version) && Array.isArray(p.objects)) {
+        this.sceneVersion = p.version;
+        this._emit("placements", { version: p.version, objects: p.objects });
+      } else {
+        this._emit("error", { code: "protocol", message: "unexpected text message from the server", fatal: false });
+      }
       return;
     }
     let frame;

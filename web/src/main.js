@@ -117,6 +117,7 @@ const app = {
   overview: query.get("overview") === "1",
   client: null,
   latest: null, // last 'visible' event detail + mask
+  placed: new Map(), // object id → the placement (column-major 4×4) last applied
   latestVersion: 0,
   appliedVersion: -1,
   appliedKey: "",
@@ -305,8 +306,29 @@ export function lodSkippedTriangles(ids, levels, triangles) {
   return Math.round(skipped);
 }
 
+/**
+ * Moves objects where the server's writers put them: each `{id, matrix}` is a
+ * column-major 4×4 relative to the scene file, applied to the meshes drawing the
+ * object (whose own matrices, after `flatten`, are their world matrices as loaded).
+ */
+function applyPlacements(objects) {
+  for (const { id, matrix } of objects) {
+    const meshes = app.meshesById[id];
+    if (!meshes || !Array.isArray(matrix) || matrix.length !== 16) continue;
+    const placement = new THREE.Matrix4().fromArray(matrix);
+    for (const m of meshes) {
+      if (!m.userData.loadedMatrix) m.userData.loadedMatrix = m.matrix.clone();
+      m.matrix.multiplyMatrices(placement, m.userData.loadedMatrix);
+      m.matrix.decompose(m.position, m.quaternion, m.scale);
+      m.matrixWorldNeedsUpdate = true;
+    }
+    app.placed.set(id, matrix);
+  }
+}
+
 function connect(sceneId) {
-  const params = { ...STREAM_OPTIONS, ...SMOOTHING };
+  // Told where moved objects are (scene version and placements, before the frames).
+  const params = { ...STREAM_OPTIONS, ...SMOOTHING, placements: true };
   for (const k of ["method", "threshold", "deb", "refine", "lookahead_ms", "hold_ms", "seen_first"]) if (query.has(k)) params[k] = query.get(k);
   const lod = query.get("lod_px") ?? LOD_PX;
   if (lod !== "" && lod !== "off") params.lod_px = lod;
@@ -327,6 +349,7 @@ function connect(sceneId) {
       showError("mismatch", `the stream reports ${objectCount} objects but the object table has ${app.objects.length}; reload the page`);
     }
   });
+  client.addEventListener("placements", (e) => applyPlacements(e.detail.objects));
   client.addEventListener("pose", (e) => {
     const { seq, pose, wantFull } = e.detail;
     app.lastPose = { seq, wantFull, ...pose };
@@ -973,6 +996,18 @@ window.homcull = {
   },
   /** The HUD numbers as shown. */
   hud,
+  /** The scene version the stream last named, and {id: matrix} of the placements applied. */
+  get placements() {
+    return { version: app.client?.sceneVersion ?? null, objects: Object.fromEntries(app.placed) };
+  },
+  /** World position of the first mesh drawing object `id` (three.js), or null. */
+  objectPosition(id) {
+    const m = app.meshesById[id]?.[0];
+    if (!m) return null;
+    m.updateMatrixWorld(true);
+    const p = new THREE.Vector3().setFromMatrixPosition(m.matrixWorld);
+    return [p.x, p.y, p.z];
+  },
   /** {id: level} of the drawn objects the debug view tints by level of detail (occluders too). */
   tintedLevels() {
     return Object.fromEntries(app.tint);

@@ -79,7 +79,7 @@ function harness({ fetchImpl, random = () => 0.5 } = {}) {
     random,
     fetch: fetchImpl ?? (async () => ({ status: 200, ok: true, json: async () => ({ id: "demo" }) })),
   });
-  for (const type of ["state", "hello", "visible", "stats", "error", "pose"]) {
+  for (const type of ["state", "hello", "visible", "stats", "error", "pose", "placements"]) {
     client.addEventListener(type, (e) => events.push({ type, ...e.detail }));
   }
   return {
@@ -148,6 +148,22 @@ test("connects to the stream URL and sends nothing before the hello", () => {
   assert.equal(h.last().sent.length, 1);
   assert.equal(h.last().sent[0].want_full, true);
   assert.deepEqual(h.of("state").map((e) => e.state), ["connecting", "open"]);
+});
+
+test("a placements text message is surfaced with its version; other text is a protocol error", () => {
+  const h = harness();
+  h.client.connect();
+  h.last().hello();
+  const m = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 2, 0.5, 0, 1];
+  h.last().onmessage?.({ data: JSON.stringify({ placements: { version: 3, objects: [{ id: 4, matrix: m }] } }) });
+  assert.deepEqual(h.of("placements"), [{ type: "placements", version: 3, objects: [{ id: 4, matrix: m }] }]);
+  assert.equal(h.client.sceneVersion, 3);
+  h.last().onmessage?.({ data: "{\"something\": 1}" });
+  h.last().onmessage?.({ data: "not json" });
+  const errors = h.of("error");
+  assert.equal(errors.length, 2);
+  assert.ok(errors.every((e) => e.code === "protocol" && !e.fatal));
+  assert.equal(h.client.state, State.OPEN);
 });
 
 test("latest pose wins: at most one pose per animation frame, unchanged poses not resent", () => {

@@ -9,7 +9,8 @@
 //   - that set (and its stats) equals an independent POST /v1/scenes/demo/cull of the
 //     same pose,
 //   - the HUD shows the frame's numbers,
-// and that the page logged no console errors. Also checks culling off, the debug view,
+// and that the page logged no console errors. Also checks that an object a writer moves
+// is drawn where the server put it. Also checks culling off, the debug view,
 // an unknown scene and a server going away (errors shown in the page), and saves
 // screenshots to HOMCULL_ARTIFACTS (default web/test-artifacts). The server is always
 // killed at the end. Exit status 0 on success.
@@ -267,6 +268,43 @@ async function main() {
   log(`mean share of in-frustum objects culled by occlusion: ${(100 * occlusionShare).toFixed(1)} %`);
   assert.ok(occlusionShare > 0, "occlusion culling removed something at street level");
   assert.deepEqual(consoleErrors, [], "console errors during the walk");
+
+  // Moving objects: an object a writer moves (POST /transforms) is drawn where the
+  // server put it, after the stream names the new version; sent back, it returns.
+  {
+    const answered = (x) =>
+      page.waitForFunction(
+        (px) => {
+          const h = window.homcull;
+          return h.lastPose && h.lastPose.position[0] === px && h.lastFrame && h.lastFrame.ack === h.lastPose.seq;
+        },
+        x,
+        { timeout: STEP_TIMEOUT_MS },
+      );
+    await page.evaluate(() => window.homcull.setPose([0, 1.7, 0], -90, 0));
+    await answered(0);
+    const drawn = await page.evaluate(() => window.homcull.drawnIds());
+    const id = drawn[Math.floor(drawn.length / 2)];
+    const before = await page.evaluate((k) => window.homcull.objectPosition(k), id);
+    const move = (body) =>
+      getJson(`${base}/v1/scenes/demo/transforms`, {
+        method: "POST",
+        headers: { "content-type": "application/json" },
+        body: JSON.stringify(body),
+      });
+    const moved = await move({ objects: [{ id, translation: [0, 2, 0] }] });
+    assert.equal(moved.version, 1);
+    await page.evaluate(() => window.homcull.setPose([0.01, 1.7, 0], -90, 0));
+    await page.waitForFunction((v) => window.homcull.placements.version === v, moved.version, { timeout: STEP_TIMEOUT_MS });
+    const up = await page.evaluate((k) => window.homcull.objectPosition(k), id);
+    assert.ok(Math.abs(up[1] - before[1] - 2) < 1e-3 && Math.abs(up[0] - before[0]) < 1e-3, `object ${id} moved up 2 m: ${before} -> ${up}`);
+    const home = await move({ objects: [{ id }] });
+    await page.evaluate(() => window.homcull.setPose([0, 1.7, 0], -90, 0));
+    await page.waitForFunction((v) => window.homcull.placements.version === v, home.version, { timeout: STEP_TIMEOUT_MS });
+    const back = await page.evaluate((k) => window.homcull.objectPosition(k), id);
+    assert.ok(back.every((c, i) => Math.abs(c - before[i]) < 1e-3), `object ${id} back home: ${back} vs ${before}`);
+    log(`moved object ${id} drawn where the server put it (version ${moved.version}), then back (version ${home.version})`);
+  }
 
 
   const frames = (n) => page.evaluate((k) => new Promise((r) => {
