@@ -435,3 +435,59 @@ async fn streams_that_ask_are_told_where_moved_objects_are() {
     assert!(next_message(&mut plain).await.is_err());
     srv.stop().await;
 }
+
+/// `homcull animate`: the demo city's cars drive (one update of all of them per tick,
+/// each with its velocity), the scene's versions follow, and a cull afterwards names
+/// the last; it refuses a server off loopback and a prefix nothing has.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn animate_drives_the_demo_citys_cars() {
+    use homcull::eval::animate::{AnimateConfig, Axis, run};
+    let srv = TestServer::start(|_| {}).await;
+    let config = AnimateConfig {
+        url: srv.url(""),
+        scene: "demo".into(),
+        prefix: "car_".into(),
+        axis: Axis::Long,
+        amplitude: 20.0,
+        period_s: 4.0,
+        rate_hz: 20.0,
+        seconds: 1.0,
+        token: None,
+    };
+    let report = run(&config).await.unwrap();
+    assert!(report.objects > 50, "{} cars", report.objects);
+    assert!(report.updates >= 10, "{} updates", report.updates);
+    assert_eq!(report.last_version, report.updates);
+    let http = reqwest::Client::new();
+    let pose = street_walk(1, [320, 180]).remove(0);
+    let r: CullResponse = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/cull"),
+        &json!({"pose": pose_json(&pose)}),
+    )
+    .await;
+    assert_eq!(r.stats.scene_version, report.last_version);
+    let off = AnimateConfig {
+        url: "http://10.0.0.1:8080".into(),
+        ..config.clone()
+    };
+    assert!(
+        run(&off)
+            .await
+            .unwrap_err()
+            .to_string()
+            .contains("loopback")
+    );
+    let none = AnimateConfig {
+        prefix: "spaceship_".into(),
+        ..config
+    };
+    assert!(
+        run(&none)
+            .await
+            .unwrap_err()
+            .to_string()
+            .contains("spaceship_")
+    );
+    srv.stop().await;
+}

@@ -31,6 +31,8 @@ pub enum Command {
     Healthcheck(HealthcheckArgs),
     /// Drive a running server with N WebSocket or REST clients on loopback and report throughput and latency.
     Loadgen(LoadgenArgs),
+    /// Move a running server's objects on loopback (the demo city's cars drive) so a viewer shows motion.
+    Animate(AnimateArgs),
     /// Cull one pose and print the visible IDs and stats as JSON.
     Cull(CullArgs),
     /// Run every method and the exact oracle on the same poses and report quality and speed.
@@ -401,6 +403,68 @@ pub enum ReportSection {
     Batch,
     Objects,
     Server,
+}
+
+/// `homcull animate`: a writer moving objects of a running server (loopback only).
+#[derive(Debug, Clone, Args)]
+pub struct AnimateArgs {
+    /// Base URL of the server (loopback only).
+    #[arg(long, default_value = "http://127.0.0.1:8080")]
+    pub url: String,
+    /// Scene id.
+    #[arg(long, default_value = "demo")]
+    pub scene: String,
+    /// Objects whose names start with this move (`model_` for the OpenArena maps' doors and lifts).
+    #[arg(long, default_value = "car_")]
+    pub prefix: String,
+    /// The axis they move along: `long` (the longer horizontal side: cars drive forward), x, y or z.
+    #[arg(long, default_value = "long")]
+    pub axis: AxisArg,
+    /// Metres each side of where the file put them.
+    #[arg(long, default_value_t = 20.0)]
+    pub amplitude: f32,
+    /// Seconds for one round trip.
+    #[arg(long, default_value_t = 12.0)]
+    pub period_s: f32,
+    /// Updates per second.
+    #[arg(long, default_value_t = 20.0)]
+    pub rate: f32,
+    /// Seconds to run (0: until stopped).
+    #[arg(long, default_value_t = 0.0)]
+    pub seconds: f64,
+    /// Bearer token for writes, when the server has one.
+    #[arg(long, env = "HOMCULL_API_TOKEN")]
+    pub token: Option<String>,
+}
+
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum AxisArg {
+    Long,
+    X,
+    Y,
+    Z,
+}
+
+impl AnimateArgs {
+    pub fn config(&self) -> crate::eval::animate::AnimateConfig {
+        use crate::eval::animate::Axis;
+        crate::eval::animate::AnimateConfig {
+            url: self.url.clone(),
+            scene: self.scene.clone(),
+            prefix: self.prefix.clone(),
+            axis: match self.axis {
+                AxisArg::Long => Axis::Long,
+                AxisArg::X => Axis::X,
+                AxisArg::Y => Axis::Y,
+                AxisArg::Z => Axis::Z,
+            },
+            amplitude: self.amplitude,
+            period_s: self.period_s,
+            rate_hz: self.rate,
+            seconds: self.seconds,
+            token: self.token.clone(),
+        }
+    }
 }
 
 impl LoadgenArgs {

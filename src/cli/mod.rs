@@ -15,7 +15,8 @@ use clap::Parser;
 use crate::core::engine::Backend;
 use crate::core::scene::{Scene, demo_city, load_path};
 use args::{
-    BackendArgs, Cli, Command, HealthcheckArgs, LoadgenArgs, ReportArgs, SceneArg, ServeArgs,
+    AnimateArgs, BackendArgs, Cli, Command, HealthcheckArgs, LoadgenArgs, ReportArgs, SceneArg,
+    ServeArgs,
 };
 
 /// Parses the command line and runs the subcommand (`serve` when none is given).
@@ -24,6 +25,7 @@ pub fn run() -> Result<()> {
         Some(Command::Serve(a)) => serve::run(a),
         Some(Command::Healthcheck(a)) => healthcheck(a),
         Some(Command::Loadgen(a)) => loadgen(a),
+        Some(Command::Animate(a)) => animate(a),
         Some(Command::Cull(a)) => cull::run(a),
         Some(Command::Eval(a)) => eval::run(a),
         Some(Command::Report(a)) => report(a),
@@ -90,6 +92,16 @@ fn loadgen(a: LoadgenArgs) -> Result<()> {
     } else {
         println!("{}", report.summary());
     }
+    Ok(())
+}
+
+fn animate(a: AnimateArgs) -> Result<()> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    let report = rt.block_on(crate::eval::animate::run(&a.config()))?;
+    println!("{}", serde_json::to_string(&report)?);
     Ok(())
 }
 

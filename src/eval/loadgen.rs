@@ -102,7 +102,7 @@ impl LoadReport {
 }
 
 /// `host:port` of a loopback `http://` URL; anything else is refused.
-fn loopback(url: &str) -> Result<String> {
+pub fn loopback(url: &str) -> Result<String> {
     let rest = url
         .strip_prefix("http://")
         .context("the load generator takes an http:// URL")?;
@@ -166,7 +166,7 @@ struct ClientStats {
 }
 
 /// A keep-alive HTTP client for one load client (no proxy: loopback only).
-fn http_client() -> Result<reqwest::Client> {
+pub fn http_client() -> Result<reqwest::Client> {
     Ok(reqwest::Client::builder()
         .no_proxy()
         .tcp_nodelay(true)

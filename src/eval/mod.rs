@@ -3,6 +3,7 @@
 //!
 //! Nothing here is on a serving path; the server does not depend on this layer.
 
+pub mod animate;
 pub mod compare;
 pub mod loadgen;
 pub mod loss;
