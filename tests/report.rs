@@ -1,5 +1,6 @@
 //! `homcull report --quick` end to end: the binary writes report.md and its plots, and
-//! the quality table shows zero false culls for hom and hzb on every scene.
+//! the quality table shows zero false culls for hom and hzb on every scene, as does the
+//! moving-objects table at every horizon.
 
 mod common;
 
@@ -202,6 +203,24 @@ fn quick_report_writes_markdown_and_plots() {
         }
     }
 
+    // Moving objects: every row (the demo city's cars at each horizon) culls nothing
+    // the oracle at its version sees.
+    let motion = md
+        .split("## 3b. Moving objects")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .expect("a moving-objects section");
+    let rows: Vec<Vec<&str>> = motion
+        .lines()
+        .filter(|l| l.starts_with("| demo") || l.starts_with("| oa_"))
+        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+        .collect();
+    assert!(rows.iter().any(|r| r[2] == "static") && rows.iter().any(|r| r[2] == "400 ms"));
+    for r in &rows {
+        assert_eq!(r[4], "0", "false culls with motion: {r:?}");
+        assert_ne!(r[1], "0", "movers: {r:?}");
+    }
+
     // Every plot the report links exists and is a PNG.
     let pngs: Vec<&str> = md
         .split("](")
@@ -217,6 +236,7 @@ fn quick_report_writes_markdown_and_plots() {
         "batch.png",
         "objects.png",
         "server.png",
+        "motion_efficiency.png",
     ] {
         assert!(pngs.contains(&name), "report.md links {name}: {pngs:?}");
     }

@@ -337,6 +337,12 @@ async fn the_load_generator_moves_objects_while_clients_stream() {
         report.transforms_per_s
     );
     assert!(report.last_version > 50, "{}", report.last_version);
+    let latency = report.update_to_visible_ms.expect("measured with a writer");
+    assert!(
+        latency.p50 > 0.0 && latency.p50 < 1000.0,
+        "update to visible p50 {} ms",
+        latency.p50
+    );
     srv.stop().await;
 }
 

@@ -382,7 +382,7 @@ pub struct ReportArgs {
     #[arg(long, default_value = "../shared/scenes")]
     pub scenes_dir: PathBuf,
     /// Which sections to run (comma-separated): quality (with the threshold curve),
-    /// budget, viewport, batch, objects, server. Default: all.
+    /// budget, viewport, batch, objects, server, motion. Default: all.
     #[arg(long, value_delimiter = ',', value_enum)]
     pub sections: Vec<ReportSection>,
 }
@@ -403,6 +403,7 @@ pub enum ReportSection {
     Batch,
     Objects,
     Server,
+    Motion,
 }
 
 /// `homcull animate`: a writer moving objects of a running server (loopback only).
@@ -493,6 +494,7 @@ impl ReportArgs {
                 ReportSection::Batch => Section::Batch,
                 ReportSection::Objects => Section::Objects,
                 ReportSection::Server => Section::Server,
+                ReportSection::Motion => Section::Motion,
             })
             .collect();
         ReportOptions {

@@ -11,7 +11,9 @@
 //! under load. With `--transforms-per-s N`, a writer moves objects meanwhile
 //! (`POST /v1/scenes/{id}/transforms` every 10 ms, N/100 objects each, round robin
 //! over an eighth of the scene's objects, every 8th ID, the traffic; each with a
-//! velocity). The run stops by itself after `--seconds`.
+//! velocity), and one more WebSocket client, streaming with `placements=true`, measures
+//! update to visible: from sending an update to the first message of its stream naming
+//! that version or a later one. The run stops by itself after `--seconds`.
 
 use std::time::{Duration, Instant};
 
@@ -70,6 +72,9 @@ pub struct LoadReport {
     pub transform_errors: u64,
     /// The scene version the last transforms request made.
     pub last_version: u64,
+    /// With a writer: from sending an update to the probe stream's first message
+    /// naming its version or a later one, milliseconds.
+    pub update_to_visible_ms: Option<Percentiles>,
 }
 
 impl LoadReport {
@@ -92,8 +97,11 @@ impl LoadReport {
             self.healthz_ms.p99
         ) + &if self.last_version > 0 {
             format!(
-                "; {:.0} object transforms/s applied ({} refused), scene version {}",
-                self.transforms_per_s, self.transform_errors, self.last_version
+                "; {:.0} object transforms/s applied ({} refused), scene version {}, update to visible p50 {:.1} ms",
+                self.transforms_per_s,
+                self.transform_errors,
+                self.last_version,
+                self.update_to_visible_ms.map_or(f64::NAN, |p| p.p50)
             )
         } else {
             String::new()
@@ -235,6 +243,10 @@ pub async fn run(a: &LoadConfig) -> Result<LoadReport> {
         let per_request = (a.transforms_per_s / 100.0).ceil() as usize;
         tokio::spawn(writer(host, scene, info.objects, per_request, deadline))
     });
+    let probe = (a.transforms_per_s > 0.0).then(|| {
+        let (host, scene, poses) = (host.clone(), a.scene.clone(), poses.clone());
+        tokio::spawn(async move { placements_probe(&host, &scene, &poses, deadline).await })
+    });
     let mut tasks = Vec::new();
     for k in 0..a.clients {
         let poses = poses.clone();
@@ -277,6 +289,13 @@ pub async fn run(a: &LoadConfig) -> Result<LoadReport> {
         Some(w) => w.await??,
         None => Written::default(),
     };
+    let update_to_visible = match probe {
+        Some(p) => Some(Percentiles::of(update_to_visible(
+            &written.sent,
+            &p.await??,
+        ))),
+        None => None,
+    };
     Ok(LoadReport {
         mode: a.mode.clone(),
         clients: a.clients,
@@ -295,7 +314,62 @@ pub async fn run(a: &LoadConfig) -> Result<LoadReport> {
         transforms_per_s: written.objects as f64 / secs,
         transform_errors: written.errors,
         last_version: written.version,
+        update_to_visible_ms: update_to_visible,
     })
+}
+
+/// Per accepted update (its version and when it was sent), the time until the first
+/// message of the probe stream (version, when it arrived) naming that version or a
+/// later one; updates the stream never reached are left out.
+fn update_to_visible(sent: &[(u64, Instant)], seen: &[(u64, Instant)]) -> Vec<f64> {
+    sent.iter()
+        .filter_map(|&(v, at)| {
+            // Versions only grow along one stream.
+            let k = seen.partition_point(|&(s, _)| s < v);
+            let &(_, arrived) = seen.get(k)?;
+            Some(arrived.saturating_duration_since(at).as_secs_f64() * 1e3)
+        })
+        .collect()
+}
+
+/// A WebSocket client streaming with `placements=true`: the scene versions its
+/// messages name, with when each arrived.
+async fn placements_probe(
+    host: &str,
+    scene: &str,
+    poses: &[Pose],
+    deadline: Instant,
+) -> Result<Vec<(u64, Instant)>> {
+    let (mut ws, _) = tokio_tungstenite::connect_async_with_config(
+        format!("ws://{host}/v1/scenes/{scene}/stream?placements=true"),
+        None,
+        true,
+    )
+    .await?;
+    ws.next().await.context("no hello")??;
+    let mut seen = Vec::new();
+    let mut seq = 0u32;
+    while Instant::now() < deadline {
+        seq += 1;
+        let pose = &poses[seq as usize % poses.len()];
+        let frame = PoseFrame::from_pose(seq, false, pose).context("walk poses use quaternions")?;
+        ws.send(Message::Binary(Frame::Pose(frame).encode().into()))
+            .await?;
+        loop {
+            match ws.next().await.context("stream ended")?? {
+                Message::Text(t) => {
+                    let v: serde_json::Value = serde_json::from_str(&t)?;
+                    if let Some(version) = v["placements"]["version"].as_u64() {
+                        seen.push((version, Instant::now()));
+                    }
+                }
+                Message::Binary(b) if Frame::decode(&b)?.ack() == seq => break,
+                _ => {}
+            }
+        }
+    }
+    ws.close(None).await.ok();
+    Ok(seen)
 }
 
 #[derive(Default)]
@@ -303,6 +377,8 @@ struct Written {
     objects: u64,
     errors: u64,
     version: u64,
+    /// Each accepted update's version and when it was sent.
+    sent: Vec<(u64, Instant)>,
 }
 
 /// Every 10 ms until `deadline`, one transforms request moving `per_request` objects
@@ -334,6 +410,7 @@ async fn writer(
             })
             .collect();
         let n = moved.len() as u64;
+        let sent_at = Instant::now();
         let res = http
             .post(&url)
             .json(&serde_json::json!({ "objects": moved }))
@@ -343,6 +420,7 @@ async fn writer(
             let r: homcull_proto::TransformsResponse = res.json().await?;
             w.objects += n;
             w.version = r.version;
+            w.sent.push((r.version, sent_at));
         } else {
             w.errors += 1;
         }

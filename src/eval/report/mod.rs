@@ -11,6 +11,9 @@
 //! 5. time per pose against object count (sized demo cities);
 //! 6. the server under 1…N WebSocket clients, batching on and off (in [`server`]).
 //!
+//! And, after section 3, section 3b: moving objects, efficiency against the motion
+//! horizon (in [`motion`]).
+//!
 //! The report names the adapter and the CPU and says whether the adapter is a CPU
 //! (lavapipe/llvmpipe, wgpu `DeviceType::Cpu`, or homcull's own CPU fallback), in
 //! which case every time in it is CPU time. `report.md` is rewritten after each
@@ -20,6 +23,7 @@ mod backends;
 mod budget;
 mod context;
 mod losses;
+mod motion;
 mod passes;
 pub mod plot;
 mod quality;
@@ -54,6 +58,8 @@ pub enum Section {
     Batch,
     Objects,
     Server,
+    /// Efficiency with moving objects against the horizon.
+    Motion,
 }
 
 /// What a report run measures and where it writes.
@@ -108,7 +114,7 @@ pub fn run(a: &ReportOptions, backend: Backend) -> Result<()> {
         a.out.display()
     );
     let run = |s: Section| a.sections.is_empty() || a.sections.contains(&s);
-    if run(Section::Quality) || run(Section::Budget) {
+    if run(Section::Quality) || run(Section::Budget) || run(Section::Motion) {
         let scenes = scenes::load_scenes(&a.scenes_dir)?;
         r.save()?;
         if run(Section::Quality) {
@@ -125,6 +131,10 @@ pub fn run(a: &ReportOptions, backend: Backend) -> Result<()> {
         }
         if run(Section::Budget) {
             budget::section(&mut r, &scenes)?;
+            r.save()?;
+        }
+        if run(Section::Motion) {
+            motion::section(&mut r, &scenes)?;
             r.save()?;
         }
     }
