@@ -497,3 +497,48 @@ async fn animate_drives_the_demo_citys_cars() {
     );
     srv.stop().await;
 }
+
+/// Placements live in memory: a restart serves the stored scene as its file has it,
+/// at version 0 (and the upload itself survives).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_restart_starts_again_from_the_scene_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let http = reqwest::Client::new();
+    // The small scene: a wall at z = -10, a box hidden behind it at z = -20.
+    let pose = json!({"position": [0, 1, 0], "look_at": [0, 1, -20], "viewport": [160, 90]});
+    let srv = TestServer::start_in(dir.path(), |_| {}).await;
+    let up = http
+        .post(srv.url("/v1/scenes?name=small"))
+        .body(common::rest::small_glb())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(up.status(), 201);
+    let id = up.json::<homcull_proto::SceneInfo>().await.unwrap().id;
+    let cull = |srv: &TestServer| srv.url(&format!("/v1/scenes/{id}/cull"));
+    let before: CullResponse = post_json(&http, cull(&srv), &json!({"pose": pose})).await;
+    assert_eq!(before.visible, [0], "only the wall: {:?}", before.visible);
+    // The wall moves out of the way: the box shows.
+    let moved: TransformsResponse = post_json(
+        &http,
+        srv.url(&format!("/v1/scenes/{id}/transforms")),
+        &json!({"objects": [{"id": 0, "translation": [100, 0, 0]}]}),
+    )
+    .await;
+    assert_eq!(moved.version, 1);
+    let after: CullResponse = post_json(&http, cull(&srv), &json!({"pose": pose})).await;
+    assert_eq!(
+        (after.visible.as_slice(), after.stats.scene_version),
+        (&[1][..], 1)
+    );
+    srv.stop().await;
+
+    let srv = TestServer::start_in(dir.path(), |_| {}).await;
+    let again: CullResponse = post_json(&http, cull(&srv), &json!({"pose": pose})).await;
+    assert_eq!(
+        again.stats.scene_version, 0,
+        "a restart keeps no placements"
+    );
+    assert_eq!(again.visible, before.visible);
+    srv.stop().await;
+}
