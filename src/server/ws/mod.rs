@@ -14,7 +14,7 @@
 //! Options in the query string: `method`, `threshold`, `deb` as for `POST /cull`, and the
 //! opt-in smoothing `lookahead_ms` and `hold_ms` ([`super::motion`]), which stream a
 //! superset of the pose's cull, and `placements=true`: JSON text messages saying where
-//! moved objects are ([`placements`]).
+//! moved objects are ([`placements`]). A stream may also move objects ([`writer`]).
 //!
 //! A client that stops reading is dropped within the send timeout, not when the kernel's
 //! buffers fill: the sender pings it every quarter of the timeout, and a ping left
@@ -27,6 +27,7 @@
 mod frames;
 mod liveness;
 mod placements;
+mod writer;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -94,11 +95,13 @@ pub struct StreamQuery {
     pub placements: Option<bool>,
 }
 
-/// A stream's other choices: occluders seen first, and placements told.
+/// A stream's other choices: occluders seen first, placements told, and whether it
+/// may move objects ([`writer`]).
 #[derive(Debug, Clone, Copy)]
 struct Choices {
     seen_first: bool,
     placements: bool,
+    may_write: bool,
 }
 
 /// How a stream shapes its sets (see [`super::motion`]); both off by default, when the
@@ -154,6 +157,7 @@ pub async fn stream(
     let choices = Choices {
         seen_first: q.seen_first.unwrap_or(false),
         placements: q.placements.unwrap_or(false),
+        may_write: super::guard::check_token(&state, &headers).is_ok(),
     };
     super::guard::check_origin(&headers, &state.config.allowed_origins)?;
     if state.config.auth == super::AuthScope::Cull {
@@ -262,9 +266,15 @@ async fn client(
     let (err_tx, mut err_rx) = mpsc::channel::<ErrorFrame>(8);
     let idle = Duration::from_secs(state.config.ws_idle_timeout_s.max(1));
     let liveness = Arc::new(Liveness::new());
+    let writer = writer::Writer {
+        dynamics: scene.dynamics.clone(),
+        may_write: choices.may_write,
+        max_objects: state.config.max_transform_objects,
+    };
     let reader = {
         let mailbox = mailbox.clone();
         let liveness = liveness.clone();
+        let sink = sink.clone();
         tokio::spawn(async move {
             let mut bad = 0u32;
             let mut motion = MotionEstimator::default();
@@ -277,6 +287,21 @@ async fn client(
                 };
                 let parsed = match msg {
                     Ok(Message::Binary(b)) => parse_binary(&b),
+                    Ok(Message::Text(t)) if writer::is_update(&t) => {
+                        idle_at = tokio::time::Instant::now() + idle;
+                        let (reply, malformed) = writer.apply(&t).await;
+                        bad = if malformed { bad + 1 } else { 0 };
+                        if send_text(&sink, "transforms", reply, send_timeout)
+                            .await
+                            .is_err()
+                        {
+                            break ReaderEnd::Gone;
+                        }
+                        if bad >= MAX_BAD_MESSAGES {
+                            break ReaderEnd::TooManyBad;
+                        }
+                        continue;
+                    }
                     Ok(Message::Text(t)) => parse_text(&t),
                     Ok(Message::Close(_)) => break ReaderEnd::ClientClosed,
                     Ok(Message::Pong(_)) => {
@@ -401,7 +426,9 @@ async fn client(
             Ok(r) => {
                 let told = told.as_mut().and_then(|t| t.message(&r));
                 if let Some(text) = told
-                    && send_text(&sink, text, send_timeout).await.is_err()
+                    && send_text(&sink, "placements", text, send_timeout)
+                        .await
+                        .is_err()
                 {
                     break None;
                 }
@@ -528,11 +555,15 @@ async fn send(sink: &Mutex<Sink>, frame: Frame, timeout: Duration) -> Result<(),
     send_message(sink, Message::Binary(bytes.into()), timeout).await
 }
 
-/// A text message ([`placements`]).
-async fn send_text(sink: &Mutex<Sink>, text: String, timeout: Duration) -> Result<(), ()> {
-    metrics::counter!("homcull_ws_frames_total", "kind" => "placements").increment(1);
-    metrics::counter!("homcull_ws_frame_bytes_total", "kind" => "placements")
-        .increment(text.len() as u64);
+/// A text message ([`placements`], [`writer`]'s replies) of `kind`.
+async fn send_text(
+    sink: &Mutex<Sink>,
+    kind: &'static str,
+    text: String,
+    timeout: Duration,
+) -> Result<(), ()> {
+    metrics::counter!("homcull_ws_frames_total", "kind" => kind).increment(1);
+    metrics::counter!("homcull_ws_frame_bytes_total", "kind" => kind).increment(text.len() as u64);
     send_message(sink, Message::Text(text.into()), timeout).await
 }
 
