@@ -42,7 +42,7 @@ Remapping (what differs from a real container, and why):
 
 The WebSocket client is this file's own (RFC 6455 over a socket, standard library only),
 and so is its codec of the binary frames; before any check runs, the codec is tested
-against proto/tests/golden/. It understands wire versions 1 to 3 and speaks the version
+against proto/tests/golden/. It understands wire versions 1 to 4 and speaks the version
 of the server's Hello.
 
 Usage: python3 tests/deploy_runtime.py [--bin PATH] [--only run_as_image|scale_out]
@@ -313,21 +313,25 @@ class WebSocket:
 # are understood: 1 (6-word header with kind and payload_words words, 8 stats words, two
 # delta count words), 2 (4-word header with `version | kind << 16`, 5 stats words, one
 # delta count word `added | removed << 16`) and 3 (version 2 plus frames with levels of
-# detail, kinds 6 and 7, and stereo poses, pose flag bit 1 and two more words). The low
+# detail, kinds 6 and 7, and stereo poses, pose flag bit 1 and two more words) and 4
+# (version 3 with a sixth stats word, the scene version, and a writer's frames, kinds 8
+# transforms and 9 applied). The low
 # 16 bits of word 1 are the version in all; a client speaks the version of the server's
 # Hello. `check_codec` tests this codec against the golden vectors before anything else
 # runs.
 
 MAGIC = 0x4C434D48
-VERSIONS = (1, 2, 3)
-HELLO, POSE, FULL, DELTA, ERROR, FULL_LOD, DELTA_LOD = 1, 2, 3, 4, 5, 6, 7
+VERSIONS = (1, 2, 3, 4)
+HELLO, POSE, FULL, DELTA, ERROR, FULL_LOD, DELTA_LOD, TRANSFORMS, APPLIED = range(1, 10)
 KIND_NAMES = {HELLO: "hello", POSE: "pose", FULL: "full", DELTA: "delta", ERROR: "error",
-              FULL_LOD: "full_lod", DELTA_LOD: "delta_lod"}
+              FULL_LOD: "full_lod", DELTA_LOD: "delta_lod", TRANSFORMS: "transforms",
+              APPLIED: "applied"}
 STATS = {
     1: ("objects", "candidates", "culled_by_frustum", "culled_by_occlusion", "occluders_used",
         "dropped_poses", "gpu_us", "total_us"),
     2: ("candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us"),
     3: ("candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us"),
+    4: ("candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us", "scene_version"),
 }
 GOLDEN = REPO / "proto" / "tests" / "golden"
 
@@ -417,6 +421,13 @@ def decode_frame(b: bytes) -> dict:
         if flags & 2:
             ipd, convergence = struct.unpack_from("<2f", b, off + 13 * 4)
             f["stereo"] = {"ipd_m": ipd, **({"convergence_m": convergence} if convergence != 0 else {})}
+    elif kind == TRANSFORMS:
+        count = w[1]
+        expect(2 + 20 * count == n, "transforms frame length mismatch")
+        f["ids"] = [w[2 + 20 * k] for k in range(count)]
+    elif kind == APPLIED:
+        expect(n == 3, "applied frame length mismatch")
+        f["version_made"], f["applied"] = w[0] | w[1] << 32, w[2]
     else:
         raise Failed(f"unknown frame kind {kind}")
     return f
@@ -439,6 +450,10 @@ def check_codec() -> str:
         for k, v in g.get("stats", {}).items():
             if k in f["stats"]:
                 expect(f["stats"][k] == v, f"{where}: stats.{k} {f['stats'][k]} != {v}")
+        if g["kind"] == "transforms":
+            expect(f["ids"] == [o["id"] for o in g["objects"]], f"{where}: transforms ids {f['ids']}")
+        if g["kind"] == "applied":
+            expect((f["version_made"], f["applied"]) == (g["version"], g["applied"]), f"{where}: applied")
         if g["kind"] == "pose":
             enc = pose_frame(g["seq"], g, g["want_full"], version)
             expect(enc == raw, f"{where}: encoding the pose gives {enc.hex()}, expected {raw.hex()}")

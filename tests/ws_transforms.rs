@@ -177,3 +177,78 @@ async fn a_stream_may_move_objects() {
     assert_eq!(full.ack, 1);
     srv.stop().await;
 }
+
+/// The binary writer (protocol version 4): a Transforms frame is answered with an
+/// Applied frame naming the version, a refused one with an Error frame, and the next
+/// visibility frame's stats name the version it was culled at.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn binary_transforms_frames_are_applied_and_answered() {
+    use futures_util::SinkExt;
+    use homcull_proto::frame::{ErrorCode, Frame, MovedObject, TransformsFrame};
+    use tokio_tungstenite::tungstenite::Message;
+    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+    let srv = TestServer::start(|c| c.api_token = Some("s3cret".into())).await;
+    let url = srv.ws_url("/v1/scenes/demo/stream");
+    let open = |token: Option<&'static str>| {
+        let mut req = url.as_str().into_client_request().unwrap();
+        if let Some(t) = token {
+            req.headers_mut()
+                .insert("authorization", format!("Bearer {t}").parse().unwrap());
+        }
+        tokio_tungstenite::connect_async(req)
+    };
+    let up = |seq: u32, ids: &[u32]| {
+        let objects = ids
+            .iter()
+            .map(|&id| MovedObject {
+                id,
+                matrix: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.5, 0.0],
+                velocity: [2.0, 0.0, 0.0],
+                angular_velocity: [0.0; 3],
+                valid_ms: None,
+            })
+            .collect();
+        let f = Frame::Transforms(TransformsFrame {
+            seq,
+            horizon_ms: Some(50.0),
+            objects,
+        });
+        Message::Binary(f.encode().into())
+    };
+    let next_frame = async |ws: &mut common::ws::Ws| loop {
+        match next_message(ws).await {
+            Err(Frame::Hello(_)) => continue,
+            Err(f) => return f,
+            Ok(v) => panic!("unexpected text {v}"),
+        }
+    };
+    let (mut anon, _) = open(None).await.unwrap();
+    anon.send(up(1, &[3])).await.unwrap();
+    let Frame::Error(e) = next_frame(&mut anon).await else {
+        panic!("an error frame")
+    };
+    assert_eq!((e.code, e.ack), (ErrorCode::Unauthorized, 1));
+
+    let (mut ws, _) = open(Some("s3cret")).await.unwrap();
+    ws.send(up(21, &[3, 4, 9])).await.unwrap();
+    let Frame::Applied(a) = next_frame(&mut ws).await else {
+        panic!("an applied frame")
+    };
+    assert_eq!((a.ack, a.version, a.applied), (21, 1, 3));
+    ws.send(up(22, &[99_999_999])).await.unwrap();
+    let Frame::Error(e) = next_frame(&mut ws).await else {
+        panic!("an error frame")
+    };
+    assert_eq!((e.code, e.ack), (ErrorCode::InvalidTransform, 22));
+    assert!(e.message.contains("99999999"), "{}", e.message);
+    let pose = street_walk(1, [160, 90]).remove(0);
+    ws.send(common::ws::pose_frame(1, &pose, true))
+        .await
+        .unwrap();
+    let Frame::Full(full) = next_frame(&mut ws).await else {
+        panic!("a full frame")
+    };
+    assert_eq!((full.ack, full.stats.scene_version), (1, 1));
+    assert!(full.seq > a.seq, "one frame counter for the stream");
+    srv.stop().await;
+}

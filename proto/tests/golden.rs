@@ -17,8 +17,9 @@ use std::path::PathBuf;
 use std::sync::Once;
 
 use homcull_proto::frame::{
-    ErrorCode, ErrorFrame, Frame, FrameStats, HEADER_WORDS, Hello, LodChanges, MAGIC, PoseFrame,
-    VisibleDelta, VisibleFull, apply_delta, apply_delta_with_levels, diff_levels,
+    Applied, ErrorCode, ErrorFrame, Frame, FrameStats, HEADER_WORDS, Hello, LodChanges, MAGIC,
+    MovedObject, PoseFrame, TransformsFrame, VisibleDelta, VisibleFull, apply_delta,
+    apply_delta_with_levels, diff_levels,
 };
 use homcull_proto::{PROTOCOL_VERSION, Stereo};
 use serde_json::{Value, json};
@@ -90,6 +91,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                     dropped_poses: 1,
                     gpu_us: 850,
                     total_us: 1200,
+                    scene_version: 7,
                 },
                 ids: FULL_IDS.to_vec(),
                 levels: None,
@@ -106,6 +108,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                     dropped_poses: 0,
                     gpu_us: 790,
                     total_us: 1100,
+                    scene_version: 7,
                 },
                 added: vec![5, 700],
                 removed: vec![1233],
@@ -123,6 +126,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                     dropped_poses: 0,
                     gpu_us: 0,
                     total_us: 35,
+                    scene_version: 7,
                 },
                 ids: vec![],
                 levels: None,
@@ -139,6 +143,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                     dropped_poses: 3,
                     gpu_us: 0,
                     total_us: 40,
+                    scene_version: 7,
                 },
                 added: vec![],
                 removed: vec![],
@@ -156,6 +161,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                     dropped_poses: 0,
                     gpu_us: 850,
                     total_us: 1200,
+                    scene_version: 7,
                 },
                 ids: FULL_IDS.to_vec(),
                 levels: Some(FULL_LEVELS.to_vec()),
@@ -172,6 +178,7 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                     dropped_poses: 0,
                     gpu_us: 790,
                     total_us: 1100,
+                    scene_version: 7,
                 },
                 added: vec![5, 700],
                 removed: vec![1233],
@@ -189,6 +196,47 @@ fn goldens() -> Vec<(&'static str, Frame)> {
                 ack: 46,
                 code: ErrorCode::InvalidPose,
                 message: ERROR_MESSAGE.to_owned(),
+            }),
+        ),
+        (
+            "transforms",
+            Frame::Transforms(TransformsFrame {
+                seq: 12,
+                horizon_ms: Some(100.0),
+                objects: vec![
+                    MovedObject {
+                        id: 5,
+                        // A quarter turn about +Y, then 2 m along +X and 0.5 m up.
+                        matrix: [0.0, 0.0, -1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 2.0, 0.5, 0.0],
+                        velocity: [1.5, 0.0, -0.25],
+                        angular_velocity: [0.0, 0.5, 0.0],
+                        valid_ms: Some(50.0),
+                    },
+                    MovedObject {
+                        id: 700,
+                        matrix: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
+                        velocity: [0.0; 3],
+                        angular_velocity: [0.0; 3],
+                        valid_ms: None,
+                    },
+                ],
+            }),
+        ),
+        (
+            "transforms_keep_horizon",
+            Frame::Transforms(TransformsFrame {
+                seq: 13,
+                horizon_ms: None,
+                objects: vec![],
+            }),
+        ),
+        (
+            "applied",
+            Frame::Applied(Applied {
+                seq: 7,
+                ack: 12,
+                version: (1 << 32) + 3,
+                applied: 2,
             }),
         ),
     ]
@@ -214,6 +262,7 @@ fn stats_json(s: &FrameStats) -> Value {
         "dropped_poses": s.dropped_poses,
         "gpu_us": s.gpu_us,
         "total_us": s.total_us,
+        "scene_version": s.scene_version,
     })
 }
 
@@ -293,6 +342,20 @@ fn frame_json(name: &str, frame: &Frame) -> Value {
             "code_name": e.code.name(),
             "message": e.message,
             "message_byte_length": e.message.len(),
+        }),
+        Frame::Transforms(t) => json!({
+            "horizon_ms": t.horizon_ms,
+            "objects": t.objects.iter().map(|o| json!({
+                "id": o.id,
+                "matrix": o.matrix,
+                "velocity": o.velocity,
+                "angular_velocity": o.angular_velocity,
+                "valid_ms": o.valid_ms,
+            })).collect::<Vec<_>>(),
+        }),
+        Frame::Applied(a) => json!({
+            "version": a.version,
+            "applied": a.applied,
         }),
     };
     let (Value::Object(map), Value::Object(extra)) = (&mut v, fields) else {

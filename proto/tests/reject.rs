@@ -39,7 +39,7 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
                 len: MAX_FRAME_BYTES + 1,
             },
         ),
-        ("a stray byte", unaligned, E::NotWordAligned { len: 49 }),
+        ("a stray byte", unaligned, E::NotWordAligned { len: 53 }),
         (
             "big-endian magic",
             bytes(&[0x484D_434C, version_kind(2, 3), 0, 0]),
@@ -51,15 +51,15 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             bytes(&[MAGIC, 1, 3, 2, 42, 9, 1234, 10, 1224, 4, 2, 1, 850, 1200, 0]),
             E::UnsupportedVersion {
                 found: 1,
-                supported: 3,
+                supported: 4,
             },
         ),
         (
-            "version 4",
-            bytes(&[MAGIC, version_kind(4, 3), 0, 0]),
+            "version 3 (before the scene version word and the writer's frames)",
+            bytes(&[MAGIC, version_kind(3, 3), 0, 0]),
             E::UnsupportedVersion {
-                found: 4,
-                supported: 3,
+                found: 3,
+                supported: 4,
             },
         ),
         (
@@ -67,19 +67,19 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             bytes(&[MAGIC, version_kind(0, 3), 0, 0]),
             E::UnsupportedVersion {
                 found: 0,
-                supported: 3,
+                supported: 4,
             },
         ),
         (
             "version and kind swapped",
-            bytes(&[MAGIC, version_kind(4, 3), 0, 0]),
+            bytes(&[MAGIC, version_kind(3, 4), 0, 0]),
             E::UnsupportedVersion {
-                found: 4,
-                supported: 3,
+                found: 3,
+                supported: 4,
             },
         ),
         ("kind 0", frame(0, 0, 0, &[]), E::UnknownKind { kind: 0 }),
-        ("kind 8", frame(8, 0, 0, &[]), E::UnknownKind { kind: 8 }),
+        ("kind 10", frame(10, 0, 0, &[]), E::UnknownKind { kind: 10 }),
         (
             "kind 0xffff",
             frame(0xFFFF, 0, 0, &[]),
@@ -128,8 +128,8 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             frame(3, 0, 0, &stats()),
             E::PayloadSize {
                 kind: FrameKind::Full,
-                expected: 6,
-                actual: 5,
+                expected: 7,
+                actual: 6,
             },
         ),
         (
@@ -141,8 +141,8 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             },
             E::PayloadSize {
                 kind: FrameKind::Full,
-                expected: 11,
-                actual: 9,
+                expected: 12,
+                actual: 10,
             },
         ),
         (
@@ -154,8 +154,8 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             },
             E::PayloadSize {
                 kind: FrameKind::Full,
-                expected: 6 + u64::from(u32::MAX),
-                actual: 7,
+                expected: 7 + u64::from(u32::MAX),
+                actual: 8,
             },
         ),
         (
@@ -167,8 +167,8 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             },
             E::PayloadSize {
                 kind: FrameKind::Delta,
-                expected: 6 + 2 * 65535,
-                actual: 7,
+                expected: 7 + 2 * 65535,
+                actual: 8,
             },
         ),
         (
@@ -180,8 +180,8 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             },
             E::PayloadSize {
                 kind: FrameKind::Delta,
-                expected: 8,
-                actual: 7,
+                expected: 9,
+                actual: 8,
             },
         ),
         (
@@ -193,17 +193,17 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             },
             E::PayloadSize {
                 kind: FrameKind::Delta,
-                expected: 7,
-                actual: 9,
+                expected: 8,
+                actual: 10,
             },
         ),
         (
             "delta without its counts",
-            frame(4, 0, 0, &[0; 5]),
+            frame(4, 0, 0, &[0; 6]),
             E::PayloadSize {
                 kind: FrameKind::Delta,
-                expected: 6,
-                actual: 5,
+                expected: 7,
+                actual: 6,
             },
         ),
         (
@@ -340,12 +340,13 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             E::UnknownErrorCode { code: 0 },
         ),
         (
-            "error code 7",
-            frame(5, 0, 0, &text_payload(7, b"x", 0)),
-            E::UnknownErrorCode { code: 7 },
+            "error code 9",
+            frame(5, 0, 0, &text_payload(9, b"x", 0)),
+            E::UnknownErrorCode { code: 9 },
         ),
     ];
     cases.extend(levels::lod_cases());
+    cases.extend(motion::transforms_cases());
     cases.push((
         "delta removed repeated after a non-empty added list",
         delta(&[5], &[6, 6]),
@@ -484,7 +485,7 @@ fn validate_rejects_deltas_that_do_not_fit() {
         assert_eq!(expected.code(), ErrorCode::MalformedFrame);
         assert!(expected.to_string().contains("65535"), "{expected}");
     }
-    // The largest delta that fits, both lists full: 16 + 4 * (5 + 1 + 2 * 65535) bytes.
+    // The largest delta that fits, both lists full: 16 + 4 * (6 + 1 + 2 * 65535) bytes.
     let max = MAX_DELTA_IDS as u32;
     let full = VisibleDelta {
         added: (0..max).collect(),
@@ -495,9 +496,9 @@ fn validate_rejects_deltas_that_do_not_fit() {
     let frame = Frame::Delta(full);
     assert_eq!(frame.validate(), Ok(()));
     let bytes = frame.encode();
-    assert_eq!(bytes.len(), 16 + 4 * (5 + 1 + 2 * MAX_DELTA_IDS));
+    assert_eq!(bytes.len(), 16 + 4 * (6 + 1 + 2 * MAX_DELTA_IDS));
     assert_eq!(
-        &bytes[36..40],
+        &bytes[40..44],
         &[0xFF; 4],
         "both 16-bit counts at their maximum"
     );
@@ -558,7 +559,9 @@ fn error_codes_and_messages() {
             "invalid_pose",
             "overloaded",
             "internal",
-            "unknown_scene"
+            "unknown_scene",
+            "invalid_transform",
+            "unauthorized"
         ]
     );
 }

@@ -2,9 +2,11 @@
 //! never panics on arbitrary or mutated input (and whatever it accepts re-encodes to the
 //! same bytes), and `diff`/`apply_delta` agree.
 
+use homcull_proto::frame::motion::NO_VALUE;
 use homcull_proto::frame::{
-    ErrorCode, ErrorFrame, Frame, FrameStats, HEADER_WORDS, Hello, LodChanges, MAGIC, MAX_LEVEL,
-    PoseFrame, VisibleDelta, VisibleFull, apply_delta, apply_delta_with_levels, diff, diff_levels,
+    Applied, ErrorCode, ErrorFrame, Frame, FrameStats, HEADER_WORDS, Hello, LodChanges, MAGIC,
+    MAX_LEVEL, MovedObject, PoseFrame, TransformsFrame, VisibleDelta, VisibleFull, apply_delta,
+    apply_delta_with_levels, diff, diff_levels,
 };
 use homcull_proto::{PROTOCOL_VERSION, Pose, Stereo};
 use proptest::collection::{btree_map, btree_set, vec};
@@ -24,12 +26,13 @@ fn any_f32() -> impl Strategy<Value = f32> {
 }
 
 fn stats() -> impl Strategy<Value = FrameStats> {
-    any::<[u32; 5]>().prop_map(|w| FrameStats {
+    any::<[u32; 6]>().prop_map(|w| FrameStats {
         candidates: w[0],
         occluders_used: w[1],
         dropped_poses: w[2],
         gpu_us: w[3],
         total_us: w[4],
+        scene_version: w[5],
     })
 }
 
@@ -164,8 +167,63 @@ fn error() -> impl Strategy<Value = Frame> {
         })
 }
 
+/// An optional f32: any bits but the word that means "absent".
+fn optional_f32() -> impl Strategy<Value = Option<f32>> {
+    proptest::option::of(any_f32().prop_filter("not the absent word", |x| x.to_bits() != NO_VALUE))
+}
+
+fn transforms() -> impl Strategy<Value = Frame> {
+    let object = (
+        vec(any_f32(), 12),
+        [any_f32(), any_f32(), any_f32()],
+        [any_f32(), any_f32(), any_f32()],
+        optional_f32(),
+    );
+    (any::<u32>(), optional_f32(), ids(), vec(object, 64)).prop_map(
+        |(seq, horizon_ms, ids, objects)| {
+            let objects = ids
+                .into_iter()
+                .zip(objects)
+                .map(
+                    |(id, (m, velocity, angular_velocity, valid_ms))| MovedObject {
+                        id,
+                        matrix: m.try_into().unwrap(),
+                        velocity,
+                        angular_velocity,
+                        valid_ms,
+                    },
+                )
+                .collect();
+            Frame::Transforms(TransformsFrame {
+                seq,
+                horizon_ms,
+                objects,
+            })
+        },
+    )
+}
+
+fn applied() -> impl Strategy<Value = Frame> {
+    any::<(u32, u32, u64, u32)>().prop_map(|(seq, ack, version, applied)| {
+        Frame::Applied(Applied {
+            seq,
+            ack,
+            version,
+            applied,
+        })
+    })
+}
+
 fn any_frame() -> impl Strategy<Value = Frame> {
-    prop_oneof![hello(), pose(), full(), delta(), error()]
+    prop_oneof![
+        hello(),
+        pose(),
+        full(),
+        delta(),
+        error(),
+        transforms(),
+        applied()
+    ]
 }
 
 /// The pose's fields with floats as bits, so NaN compares equal to itself.
@@ -189,6 +247,7 @@ fn pose_bits(p: &PoseFrame) -> PoseBits {
 fn same(a: &Frame, b: &Frame) -> bool {
     match (a, b) {
         (Frame::Pose(x), Frame::Pose(y)) => pose_bits(x) == pose_bits(y),
+        (Frame::Transforms(_), Frame::Transforms(_)) => a.encode() == b.encode(),
         _ => a == b,
     }
 }

@@ -1,4 +1,4 @@
-// Binary WebSocket frames of the homcull protocol (version 3), encoder and decoder.
+// Binary WebSocket frames of the homcull protocol (version 4), encoder and decoder.
 //
 // This mirrors `proto/src/frame/` exactly (read its module docs for the layout): a
 // frame is a sequence of little-endian u32 words, f32 travel as their IEEE-754 bits, a
@@ -18,14 +18,19 @@
 //   { kind: "error", seq, ack, code, code_name, message }
 //   { kind: "full_lod",  seq, ack, stats, ids, levels }
 //   { kind: "delta_lod", seq, ack, stats, added, removed, changed, added_levels, changed_levels }
-// where stats = { candidates, occluders_used, dropped_poses, gpu_us, total_us } (what is
+//   { kind: "transforms", seq, ack: 0, horizon_ms, objects }  (horizon_ms null: keep;
+//     objects: [{id, matrix: 12 numbers, velocity: [3], angular_velocity: [3], valid_ms}],
+//     valid_ms null: until the next update)
+//   { kind: "applied", seq, ack, version, applied }
+// where stats = { candidates, occluders_used, dropped_poses, gpu_us, total_us,
+// scene_version } (what is
 // on the wire; `deriveStats` adds objects, culled_by_frustum and culled_by_occlusion from
 // the Hello's object count and the visible set) and ID lists are plain arrays.
 
 /** First word of every frame: bytes 48 4D 43 4C ("HMCL") read as a little-endian u32. */
 export const MAGIC = 0x4c434d48;
 /** Version of the wire protocol this client speaks. */
-export const PROTOCOL_VERSION = 3;
+export const PROTOCOL_VERSION = 4;
 /** Words in the frame header: magic, version | kind << 16, seq, ack. */
 export const HEADER_WORDS = 4;
 /** Bytes in the frame header. */
@@ -33,7 +38,7 @@ export const HEADER_BYTES = HEADER_WORDS * 4;
 /** Largest frame the decoder accepts. */
 export const MAX_FRAME_BYTES = 16 << 20;
 /** Words in the stats block of Full and Delta frames. */
-export const STATS_WORDS = 5;
+export const STATS_WORDS = 6;
 /** Most IDs a Delta frame carries per list (both counts share one word, 16 bits each). */
 export const MAX_DELTA_IDS = 0xffff;
 /** Words in a Pose payload. */
@@ -44,6 +49,10 @@ export const POSE_FLAG_WANT_FULL = 1;
 export const POSE_FLAG_STEREO = 2;
 /** Largest level of detail a frame carries. */
 export const MAX_LEVEL = 8;
+/** The word an absent optional f32 travels as (a Transforms frame's horizon and validity). */
+export const NO_VALUE = 0xffffffff;
+/** Words per object of a Transforms frame. */
+export const MOVED_OBJECT_WORDS = 20;
 
 /** Frame kinds (the high 16 bits of header word 1). */
 export const FrameKind = Object.freeze({
@@ -54,8 +63,10 @@ export const FrameKind = Object.freeze({
   ERROR: 5,
   FULL_LOD: 6,
   DELTA_LOD: 7,
+  TRANSFORMS: 8,
+  APPLIED: 9,
 });
-const KIND_NAMES = ["", "hello", "pose", "full", "delta", "error", "full_lod", "delta_lod"];
+const KIND_NAMES = ["", "hello", "pose", "full", "delta", "error", "full_lod", "delta_lod", "transforms", "applied"];
 
 /** Error codes carried by Error frames. */
 export const ErrorCode = Object.freeze({
@@ -65,6 +76,8 @@ export const ErrorCode = Object.freeze({
   OVERLOADED: 4,
   INTERNAL: 5,
   UNKNOWN_SCENE: 6,
+  INVALID_TRANSFORM: 7,
+  UNAUTHORIZED: 8,
 });
 const ERROR_CODE_NAMES = [
   "",
@@ -74,10 +87,12 @@ const ERROR_CODE_NAMES = [
   "overloaded",
   "internal",
   "unknown_scene",
+  "invalid_transform",
+  "unauthorized",
 ];
 
 /** Stats words in wire order. */
-export const STATS_FIELDS = Object.freeze(["candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us"]);
+export const STATS_FIELDS = Object.freeze(["candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us", "scene_version"]);
 
 /**
  * Objects removed by the frustum test: `objects - stats.candidates`, where `objects` is the
@@ -133,7 +148,7 @@ const MESSAGES = {
     `bad magic ${hex(f.found)}, expected ${hex(MAGIC)} (bytes 48 4d 43 4c, "HMCL")`,
   UnsupportedVersion: (f) =>
     `unsupported protocol version ${f.found}, this build supports version ${f.supported}`,
-  UnknownKind: (f) => `unknown frame kind ${f.kind} (expected 1 to 7)`,
+  UnknownKind: (f) => `unknown frame kind ${f.kind} (expected 1 to 9)`,
   NonZeroAck: (f) => `${f.kind} frame has ack ${f.ack}, it must be 0`,
   PayloadSize: (f) => `${f.kind} payload has ${f.actual} words, its fields need ${f.expected}`,
   NotAscending: (f) =>
@@ -142,7 +157,7 @@ const MESSAGES = {
   BadFlags: (f) => `pose flags 0x${f.flags.toString(16)} set bits other than bit 0 (want_full) and bit 1 (stereo)`,
   InvalidUtf8: (f) => `${f.field} is not valid UTF-8`,
   NonZeroPadding: (f) => `padding after ${f.field} is not zero`,
-  UnknownErrorCode: (f) => `unknown error code ${f.code} (expected 1 to 6)`,
+  UnknownErrorCode: (f) => `unknown error code ${f.code} (expected 1 to 8)`,
   RemovedAbsent: (f) => `delta removes id ${f.id}, which is not in the visible set`,
   AddedPresent: (f) => `delta adds id ${f.id}, which is already in the visible set`,
   BadLevel: (f) => `level of detail ${f.level} is above the largest, ${MAX_LEVEL}`,
@@ -206,7 +221,7 @@ export function decodeFrame(input) {
   }
   const kind = kindName(kindCode);
   if (kind === undefined) throw new FrameError("UnknownKind", { kind: kindCode });
-  if ((kind === "hello" || kind === "pose") && ack !== 0) {
+  if ((kind === "hello" || kind === "pose" || kind === "transforms") && ack !== 0) {
     throw new FrameError("NonZeroAck", { kind, ack });
   }
   // The payload: the rest of the frame, consumed front to back (`pos` counts payload
@@ -337,6 +352,34 @@ export function decodeFrame(input) {
         changed_levels: all.slice(addedCount),
       };
     }
+    case "transforms": {
+      const [horizon, count] = fixed(2);
+      const start = tail(count * MOVED_OBJECT_WORDS);
+      const f = (i) => view.getFloat32(i * 4, true);
+      const optional = (i) => (word(i) === NO_VALUE ? null : f(i));
+      const objects = [];
+      for (let k = 0; k < count; k++) {
+        const at = start + k * MOVED_OBJECT_WORDS;
+        const id = word(at);
+        if (k > 0 && id <= objects[k - 1].id) {
+          throw new FrameError("NotAscending", { list: "transforms", index: k, prev: objects[k - 1].id, id });
+        }
+        const floats = (from, n) => Array.from({ length: n }, (_, i) => f(at + from + i));
+        objects.push({
+          id,
+          matrix: floats(1, 12),
+          velocity: floats(13, 3),
+          angular_velocity: floats(16, 3),
+          valid_ms: optional(at + 19),
+        });
+      }
+      return { kind, seq, ack, horizon_ms: optional(HEADER_WORDS), objects };
+    }
+    case "applied": {
+      const [lo, hi, applied] = fixed(3);
+      tail(0);
+      return { kind, seq, ack, version: lo + hi * 2 ** 32, applied };
+    }
     case "error": {
       const [code, byteLen] = fixed(2);
       const name = errorCodeName(code);
@@ -463,12 +506,29 @@ export function encodeFrame(frame) {
       textBytes = utf8Encoder.encode(String(frame.message));
       words.push(u32("code", frame.code), textBytes.length);
       break;
+    case "transforms":
+      words.push(optionalBits("horizon_ms", frame.horizon_ms), frame.objects.length);
+      for (const o of frame.objects) {
+        if (o.matrix.length !== 12 || o.velocity.length !== 3 || o.angular_velocity.length !== 3) {
+          throw new TypeError("a moved object needs 12 matrix numbers, 3 of velocity and 3 of angular velocity");
+        }
+        words.push(u32("id", o.id));
+        for (const v of [...o.matrix, ...o.velocity, ...o.angular_velocity]) words.push(f32Bits("transform field", v));
+        words.push(optionalBits("valid_ms", o.valid_ms));
+      }
+      break;
+    case "applied": {
+      const version = frame.version;
+      if (!Number.isSafeInteger(version) || version < 0) throw new TypeError(`version must be a safe integer, got ${version}`);
+      words.push(version % 2 ** 32, Math.floor(version / 2 ** 32), u32("applied", frame.applied));
+      break;
+    }
   }
   const textWords = textBytes ? Math.ceil(textBytes.length / 4) : 0;
   const payloadWords = words.length + textWords;
   const out = new Uint8Array((HEADER_WORDS + payloadWords) * 4);
   const view = new DataView(out.buffer);
-  const ack = frame.kind === "hello" || frame.kind === "pose" ? 0 : u32("ack", frame.ack ?? 0);
+  const ack = frame.kind === "hello" || frame.kind === "pose" || frame.kind === "transforms" ? 0 : u32("ack", frame.ack ?? 0);
   const header = [MAGIC, (PROTOCOL_VERSION | (kindCode << 16)) >>> 0, u32("seq", frame.seq), ack];
   header.forEach((w, i) => view.setUint32(i * 4, w, true));
   words.forEach((w, i) => view.setUint32((HEADER_WORDS + i) * 4, w, true));
@@ -487,6 +547,19 @@ export function encodeFrame(frame) {
   }
   if (textBytes) out.set(textBytes, (HEADER_WORDS + words.length) * 4);
   return out;
+}
+
+const f32View = new DataView(new ArrayBuffer(4));
+
+/** The IEEE-754 bits of `v` as an f32. */
+function f32Bits(name, v) {
+  f32View.setFloat32(0, num(name, v), true);
+  return f32View.getUint32(0, true);
+}
+
+/** An optional f32: its bits, or NO_VALUE for null/undefined. */
+function optionalBits(name, v) {
+  return v === null || v === undefined ? NO_VALUE : f32Bits(name, v);
 }
 
 function num(name, v) {
@@ -541,6 +614,12 @@ export function validateFrame(frame) {
     case "error":
       payload = 2 + Math.ceil(utf8Encoder.encode(frame.message).length / 4);
       break;
+    case "transforms":
+      payload = 2 + MOVED_OBJECT_WORDS * frame.objects.length;
+      break;
+    case "applied":
+      payload = 3;
+      break;
     default:
       kindCodeOf(frame.kind);
   }
@@ -561,6 +640,7 @@ export function validateFrame(frame) {
     checkAscending("changed", frame.changed);
     checkChanged(frame.changed, frame.added, frame.removed);
   }
+  if (frame.kind === "transforms") checkAscending("transforms", frame.objects.map((o) => o.id));
 }
 
 /**

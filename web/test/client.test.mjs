@@ -10,7 +10,7 @@ import { HomcullClient, State, backoffDelay, normalizePose, percentile } from ".
 
 // The stats block of a frame as it travels, and as the client reports it for a visible set
 // of 3 in a scene of 10 objects (the hello's object count), with what it derives.
-const STATS = { candidates: 6, occluders_used: 2, dropped_poses: 0, gpu_us: 50, total_us: 90 };
+const STATS = { candidates: 6, occluders_used: 2, dropped_poses: 0, gpu_us: 50, total_us: 90, scene_version: 0 };
 const DERIVED = { objects: 10, ...STATS, culled_by_frustum: 4, culled_by_occlusion: 3 };
 
 function harness({ fetchImpl, random = () => 0.5 } = {}) {
@@ -368,7 +368,7 @@ test("protocol mismatch and fatal error frames stop the client; other errors do 
   h.last().receiveBytes(bytes);
   const e = h.of("error").at(-1);
   assert.equal(e.fatal, true);
-  assert.match(e.message, /protocol mismatch: the server speaks version 1, this client version 3/);
+  assert.match(e.message, /protocol mismatch: the server speaks version 1, this client version 4/);
   assert.equal(h.client.state, State.FAILED);
   assert.equal(h.last().closed.code, 1000);
 

@@ -15,6 +15,7 @@ import {
   MAGIC,
   MAX_DELTA_IDS,
   MAX_FRAME_BYTES,
+  NO_VALUE,
   PROTOCOL_VERSION,
   culledByFrustum,
   culledByOcclusion,
@@ -72,6 +73,10 @@ function expectedFrame(entry) {
       };
     case "error":
       return { ...common, code: entry.code, code_name: entry.code_name, message: entry.message };
+    case "transforms":
+      return { ...common, horizon_ms: entry.horizon_ms, objects: entry.objects };
+    case "applied":
+      return { ...common, version: entry.version, applied: entry.applied };
   }
   throw new Error(`unknown kind ${entry.kind}`);
 }
@@ -167,7 +172,7 @@ function frame(kind, seq, ack, payload) {
   return bytes([MAGIC, versionKind(PROTOCOL_VERSION, kind), seq, ack, ...payload]);
 }
 
-const stats = () => [9, 3, 0, 100, 200];
+const stats = () => [9, 3, 0, 100, 200, 7];
 const full = (ids) => frame(3, 1, 1, [...stats(), ids.length, ...ids]);
 const delta = (added, removed) => frame(4, 1, 1, [...stats(), added.length | (removed.length << 16), ...added, ...removed]);
 const fullLod = (ids, levelWords) => frame(6, 1, 1, [...stats(), ids.length, ...ids, ...levelWords]);
@@ -196,6 +201,13 @@ function pose(flags) {
 
 const U32_MAX = 0xffffffff;
 
+/** A Transforms payload (horizon absent) moving objects `ids` to the identity, still. */
+function movedObjects(ids) {
+  const p = [NO_VALUE, ids.length];
+  for (const id of ids) p.push(id, ...[1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0].map(f32bits), 0, 0, 0, 0, 0, 0, NO_VALUE);
+  return p;
+}
+
 function cases() {
   const long = new Uint8Array(MAX_FRAME_BYTES + 4);
   long.set(bytes([MAGIC]));
@@ -207,52 +219,57 @@ function cases() {
     ["header minus a word", frame(3, 0, 0, []).slice(0, 12), "TooShort", { len: 12 }],
     ["over the limit, checked first", long, "TooLong", { len: MAX_FRAME_BYTES + 4 }],
     ["over the limit by a byte", new Uint8Array(MAX_FRAME_BYTES + 1).fill(0xff), "TooLong", { len: MAX_FRAME_BYTES + 1 }],
-    ["a stray byte", unaligned, "NotWordAligned", { len: 49 }],
+    ["a stray byte", unaligned, "NotWordAligned", { len: 53 }],
     ["big-endian magic", bytes([0x484d434c, versionKind(2, 3), 0, 0]), "BadMagic", { found: 0x484d434c }],
     ["zero magic", new Uint8Array(16), "BadMagic", { found: 0 }],
     [
       "a version 1 full frame (version word 1, kind in word 2, payload length in word 5)",
       bytes([MAGIC, 1, 3, 2, 42, 9, 1234, 10, 1224, 4, 2, 1, 850, 1200, 0]),
       "UnsupportedVersion",
-      { found: 1, supported: 3 },
+      { found: 1, supported: 4 },
     ],
-    ["version 4", bytes([MAGIC, versionKind(4, 3), 0, 0]), "UnsupportedVersion", { found: 4, supported: 3 }],
-    ["version 0", bytes([MAGIC, versionKind(0, 3), 0, 0]), "UnsupportedVersion", { found: 0, supported: 3 }],
-    ["version and kind swapped", bytes([MAGIC, versionKind(4, 3), 0, 0]), "UnsupportedVersion", { found: 4, supported: 3 }],
+    [
+      "version 3 (before the scene version word and the writer's frames)",
+      bytes([MAGIC, versionKind(3, 3), 0, 0]),
+      "UnsupportedVersion",
+      { found: 3, supported: 4 },
+    ],
+    ["version 0", bytes([MAGIC, versionKind(0, 3), 0, 0]), "UnsupportedVersion", { found: 0, supported: 4 }],
+    ["version and kind swapped", bytes([MAGIC, versionKind(3, 4), 0, 0]), "UnsupportedVersion", { found: 3, supported: 4 }],
     ["kind 0", frame(0, 0, 0, []), "UnknownKind", { kind: 0 }],
-    ["kind 8", frame(8, 0, 0, []), "UnknownKind", { kind: 8 }],
+    ["kind 10", frame(10, 0, 0, []), "UnknownKind", { kind: 10 }],
     ["kind 0xffff", frame(0xffff, 0, 0, []), "UnknownKind", { kind: 0xffff }],
     ["hello with an ack", frame(1, 1, 9, textPayload(5, "{}", 0)), "NonZeroAck", { kind: "hello", ack: 9 }],
     ["pose with an ack", poseWithAck, "NonZeroAck", { kind: "pose", ack: 3 }],
     ["pose one word short", frame(2, 0, 0, new Array(12).fill(0)), "PayloadSize", { kind: "pose", expected: 13, actual: 12 }],
     ["pose one word long", frame(2, 0, 0, new Array(14).fill(0)), "PayloadSize", { kind: "pose", expected: 13, actual: 14 }],
-    ["full without its count", frame(3, 0, 0, stats()), "PayloadSize", { kind: "full", expected: 6, actual: 5 }],
-    ["full count larger than its ids", frame(3, 0, 0, [...stats(), 5, 1, 2, 3]), "PayloadSize", { kind: "full", expected: 11, actual: 9 }],
+    ["full without its count", frame(3, 0, 0, stats()), "PayloadSize", { kind: "full", expected: 7, actual: 6 }],
+    ["full count larger than its ids", frame(3, 0, 0, [...stats(), 5, 1, 2, 3]), "PayloadSize", { kind: "full", expected: 12, actual: 10 }],
     [
       "full count u32::MAX (must not allocate it)",
       frame(3, 0, 0, [...stats(), U32_MAX, 1]),
       "PayloadSize",
-      { kind: "full", expected: 6 + U32_MAX, actual: 7 },
+      { kind: "full", expected: 7 + U32_MAX, actual: 8 },
     ],
     [
       "delta counts both 65535 (must not allocate them)",
       frame(4, 0, 0, [...stats(), U32_MAX, 1]),
       "PayloadSize",
-      { kind: "delta", expected: 6 + 2 * 65535, actual: 7 },
+      { kind: "delta", expected: 7 + 2 * 65535, actual: 8 },
     ],
     [
       "delta counts word: 1 added in the low half, 1 removed in the high half",
       frame(4, 0, 0, [...stats(), 0x00010001, 5]),
       "PayloadSize",
-      { kind: "delta", expected: 8, actual: 7 },
+      { kind: "delta", expected: 9, actual: 8 },
     ],
     [
       "delta with its counts read as v1 (two words)",
       frame(4, 0, 0, [...stats(), 1, 1, 5, 6]),
       "PayloadSize",
-      { kind: "delta", expected: 7, actual: 9 },
+      { kind: "delta", expected: 8, actual: 10 },
     ],
-    ["delta without its counts", frame(4, 0, 0, new Array(5).fill(0)), "PayloadSize", { kind: "delta", expected: 6, actual: 5 }],
+    ["delta without its counts", frame(4, 0, 0, new Array(6).fill(0)), "PayloadSize", { kind: "delta", expected: 7, actual: 6 }],
     [
       "hello JSON longer than the payload",
       frame(1, 0, 0, [3, U32_MAX, 0x20207b7b]),
@@ -290,7 +307,12 @@ function cases() {
     ["hello padding not zero", frame(1, 0, 0, textPayload(3, "{}", 0x20)), "NonZeroPadding", { field: "hello JSON" }],
     ["error padding not zero", frame(5, 0, 0, textPayload(4, "busy!", 1)), "NonZeroPadding", { field: "error message" }],
     ["error code 0", frame(5, 0, 0, textPayload(0, "x", 0)), "UnknownErrorCode", { code: 0 }],
-    ["error code 7", frame(5, 0, 0, textPayload(7, "x", 0)), "UnknownErrorCode", { code: 7 }],
+    ["error code 9", frame(5, 0, 0, textPayload(9, "x", 0)), "UnknownErrorCode", { code: 9 }],
+    ["transforms with an ack", frame(8, 1, 4, [NO_VALUE, 0]), "NonZeroAck", { kind: "transforms", ack: 4 }],
+    ["transforms without its count", frame(8, 1, 0, [NO_VALUE]), "PayloadSize", { kind: "transforms", expected: 2, actual: 1 }],
+    ["transforms one object word short", frame(8, 1, 0, [NO_VALUE, 1, 5, 0, 0, 0]), "PayloadSize", { kind: "transforms", expected: 22, actual: 6 }],
+    ["transforms ids not ascending", frame(8, 1, 0, movedObjects([9, 3])), "NotAscending", { list: "transforms", index: 1, prev: 9, id: 3 }],
+    ["applied without its count", frame(9, 1, 2, [3, 0]), "PayloadSize", { kind: "applied", expected: 3, actual: 2 }],
     [
       "delta removed repeated after a non-empty added list",
       delta([5], [6, 6]),
@@ -298,11 +320,11 @@ function cases() {
       { list: "removed", index: 1, prev: 6, id: 6 },
     ],
     // lod_cases() of proto/tests/common/levels.rs: frames with levels of detail.
-    ["full_lod without its level word", fullLod([1, 2], []), "PayloadSize", { kind: "full_lod", expected: 9, actual: 8 }],
+    ["full_lod without its level word", fullLod([1, 2], []), "PayloadSize", { kind: "full_lod", expected: 10, actual: 9 }],
     ["full_lod with level 9", fullLod([1, 2], [levelWord([0, 9, 0, 0])]), "BadLevel", { level: 9 }],
     ["full_lod padding not zero", fullLod([1, 2], [levelWord([0, 1, 0, 1])]), "NonZeroPadding", { field: "levels" }],
     ["full_lod ids not ascending", fullLod([2, 1], [0]), "NotAscending", { list: "full", index: 1, prev: 2, id: 1 }],
-    ["delta_lod one level word short", deltaLod([4], [], [7], []), "PayloadSize", { kind: "delta_lod", expected: 10, actual: 9 }],
+    ["delta_lod one level word short", deltaLod([4], [], [7], []), "PayloadSize", { kind: "delta_lod", expected: 11, actual: 10 }],
     ["delta_lod changed not ascending", deltaLod([], [], [7, 3], [0]), "NotAscending", { list: "changed", index: 1, prev: 7, id: 3 }],
     ["delta_lod changes an id it adds", deltaLod([3, 7], [], [7], [0]), "ChangedNotKept", { id: 7 }],
     ["delta_lod changes an id it removes", deltaLod([], [5], [5], [0]), "ChangedNotKept", { id: 5 }],
@@ -373,13 +395,26 @@ test("truncations of valid frames are rejected", () => {
 test("encode then decode round-trips, and validate agrees with decode", () => {
   const frames = [
     { kind: "hello", seq: 0, ack: 0, object_count: 3, info_json: '{"a":"ü€😀"}' },
-    { kind: "full", seq: 5, ack: 4, stats: { candidates: 2, occluders_used: 1, dropped_poses: 0, gpu_us: 7, total_us: 9 }, ids: [0, 2, 0xffffffff] },
-    { kind: "delta", seq: 6, ack: 9, stats: { candidates: 0, occluders_used: 0, dropped_poses: 2, gpu_us: 0, total_us: 1 }, added: [], removed: [0, 2] },
-    { kind: "delta", seq: 7, ack: 10, stats: { candidates: 9, occluders_used: 1, dropped_poses: 0, gpu_us: 3, total_us: 4 }, added: [1, 5, 7], removed: [2, 3] },
+    { kind: "full", seq: 5, ack: 4, stats: { candidates: 2, occluders_used: 1, dropped_poses: 0, gpu_us: 7, total_us: 9, scene_version: 0 }, ids: [0, 2, 0xffffffff] },
+    { kind: "delta", seq: 6, ack: 9, stats: { candidates: 0, occluders_used: 0, dropped_poses: 2, gpu_us: 0, total_us: 1, scene_version: 0 }, added: [], removed: [0, 2] },
+    { kind: "delta", seq: 7, ack: 10, stats: { candidates: 9, occluders_used: 1, dropped_poses: 0, gpu_us: 3, total_us: 4, scene_version: 0 }, added: [1, 5, 7], removed: [2, 3] },
     { kind: "error", seq: 7, ack: 0, code: 4, code_name: "overloaded", message: "busy" },
+    { kind: "error", seq: 8, ack: 3, code: 7, code_name: "invalid_transform", message: "object 9 does not exist" },
+    {
+      kind: "transforms",
+      seq: 3,
+      ack: 0,
+      horizon_ms: 250,
+      objects: [
+        { id: 2, matrix: [1, 0, 0, 0, 1, 0, 0, 0, 1, 4.5, 0, -2], velocity: [1, 0, 0], angular_velocity: [0, 0.5, 0], valid_ms: null },
+        { id: 9, matrix: [2, 0, 0, 0, 2, 0, 0, 0, 2, 0, 0, 0], velocity: [0, 0, 0], angular_velocity: [0, 0, 0], valid_ms: 40 },
+      ],
+    },
+    { kind: "transforms", seq: 4, ack: 0, horizon_ms: null, objects: [] },
+    { kind: "applied", seq: 9, ack: 3, version: 2 ** 40 + 17, applied: 2 },
     { kind: "pose", seq: 1, ack: 0, want_full: false, position: [1.5, -0, 3], rotation: [0, 0, 0, 1], fov_y_deg: 75, viewport: [1, 8192], near: 0.5, far: 100 },
-    { kind: "full_lod", seq: 8, ack: 11, stats: { candidates: 3, occluders_used: 1, dropped_poses: 0, gpu_us: 2, total_us: 3 }, ids: [1, 2, 9, 10, 11], levels: [8, 0, 1, 2, 3] },
-    { kind: "delta_lod", seq: 9, ack: 12, stats: { candidates: 3, occluders_used: 1, dropped_poses: 0, gpu_us: 2, total_us: 3 }, added: [4], removed: [1], changed: [2, 10], added_levels: [5], changed_levels: [1, 0] },
+    { kind: "full_lod", seq: 8, ack: 11, stats: { candidates: 3, occluders_used: 1, dropped_poses: 0, gpu_us: 2, total_us: 3, scene_version: 5 }, ids: [1, 2, 9, 10, 11], levels: [8, 0, 1, 2, 3] },
+    { kind: "delta_lod", seq: 9, ack: 12, stats: { candidates: 3, occluders_used: 1, dropped_poses: 0, gpu_us: 2, total_us: 3, scene_version: 5 }, added: [4], removed: [1], changed: [2, 10], added_levels: [5], changed_levels: [1, 0] },
   ];
   for (const f of frames) {
     validateFrame(f);
@@ -399,6 +434,9 @@ test("encode then decode round-trips, and validate agrees with decode", () => {
   assert.throws(() => encodeFrame(fewLevels), TypeError);
   const changedAdded = { kind: "delta_lod", seq: 0, ack: 0, stats: {}, added: [4], removed: [], changed: [4], added_levels: [0], changed_levels: [1] };
   assert.throws(() => validateFrame(changedAdded), { variant: "ChangedNotKept", fields: { id: 4 } });
+  const unordered = { kind: "transforms", seq: 0, ack: 0, horizon_ms: null, objects: [5, 5].map((id) => ({ id, matrix: new Array(12).fill(0), velocity: [0, 0, 0], angular_velocity: [0, 0, 0], valid_ms: null })) };
+  assert.throws(() => validateFrame(unordered), { variant: "NotAscending", fields: { list: "transforms", index: 1, prev: 5, id: 5 } });
+  assert.throws(() => decodeFrame(encodeFrame(unordered)), { variant: "NotAscending" });
   const huge = { kind: "full", seq: 0, ack: 0, stats: {}, ids: Array.from({ length: MAX_FRAME_BYTES / 4 }, (_, i) => i) };
   assert.throws(() => validateFrame(huge), { variant: "TooLong" });
 });
@@ -410,8 +448,8 @@ test("a delta carries at most 65535 ids per list", () => {
   const max = { kind: "delta", seq: 1, ack: 1, stats: {}, added: range(0, MAX_DELTA_IDS), removed: range(MAX_DELTA_IDS, MAX_DELTA_IDS) };
   validateFrame(max);
   const bytes = encodeFrame(max);
-  assert.equal(bytes.length, 16 + 4 * (5 + 1 + 2 * MAX_DELTA_IDS));
-  assert.equal(new DataView(bytes.buffer).getUint32(36, true), 0xffffffff);
+  assert.equal(bytes.length, 16 + 4 * (6 + 1 + 2 * MAX_DELTA_IDS));
+  assert.equal(new DataView(bytes.buffer).getUint32(40, true), 0xffffffff);
   const back = decodeFrame(bytes);
   assert.equal(back.added.length, MAX_DELTA_IDS);
   assert.deepEqual(back.removed, max.removed);

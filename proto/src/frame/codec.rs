@@ -1,6 +1,7 @@
 //! Encoding, decoding and validation of frames: little-endian words, checked lengths,
 //! no panics and no allocation beyond what the input justifies.
 
+use super::words::{Reader, Writer};
 use super::*;
 use crate::PROTOCOL_VERSION;
 
@@ -15,6 +16,8 @@ impl Frame {
             Frame::Delta(d) if d.lod.is_some() => FrameKind::DeltaLod,
             Frame::Delta(_) => FrameKind::Delta,
             Frame::Error(_) => FrameKind::Error,
+            Frame::Transforms(_) => FrameKind::Transforms,
+            Frame::Applied(_) => FrameKind::Applied,
         }
     }
 
@@ -26,13 +29,17 @@ impl Frame {
             Frame::Full(f) => f.seq,
             Frame::Delta(f) => f.seq,
             Frame::Error(f) => f.seq,
+            Frame::Transforms(f) => f.seq,
+            Frame::Applied(f) => f.seq,
         }
     }
 
-    /// Header word 3: the pose sequence number answered (always 0 for Hello and Pose).
+    /// Header word 3: the pose (or update) sequence number answered (always 0 for
+    /// Hello, Pose and Transforms).
     pub fn ack(&self) -> u32 {
         match self {
-            Frame::Hello(_) | Frame::Pose(_) => 0,
+            Frame::Hello(_) | Frame::Pose(_) | Frame::Transforms(_) => 0,
+            Frame::Applied(f) => f.ack,
             Frame::Full(f) => f.ack,
             Frame::Delta(f) => f.ack,
             Frame::Error(f) => f.ack,
@@ -59,6 +66,8 @@ impl Frame {
                 }
             }
             Frame::Error(e) => 2 + e.message.len().div_ceil(4),
+            Frame::Transforms(t) => t.payload_words(),
+            Frame::Applied(_) => Applied::PAYLOAD_WORDS,
         }
     }
 
@@ -107,7 +116,8 @@ impl Frame {
                     None => Ok(()),
                 }
             }
-            Frame::Hello(_) | Frame::Pose(_) | Frame::Error(_) => Ok(()),
+            Frame::Transforms(t) => t.validate(),
+            Frame::Hello(_) | Frame::Pose(_) | Frame::Error(_) | Frame::Applied(_) => Ok(()),
         }
     }
 
@@ -197,6 +207,8 @@ impl Frame {
                 w.word(e.code as u32);
                 w.text(&e.message);
             }
+            Frame::Transforms(t) => t.write(&mut w),
+            Frame::Applied(a) => a.write(&mut w),
         }
         debug_assert_eq!(w.0.len(), self.encoded_len());
         w.0
@@ -228,7 +240,11 @@ impl Frame {
             });
         }
         let kind = FrameKind::from_u32(kind).ok_or(FrameError::UnknownKind { kind })?;
-        if matches!(kind, FrameKind::Hello | FrameKind::Pose) && ack != 0 {
+        if matches!(
+            kind,
+            FrameKind::Hello | FrameKind::Pose | FrameKind::Transforms
+        ) && ack != 0
+        {
             return Err(FrameError::NonZeroAck { kind, ack });
         }
         let mut p = Reader {
@@ -357,6 +373,8 @@ impl Frame {
                     lod,
                 })
             }
+            FrameKind::Transforms => Frame::Transforms(TransformsFrame::read(seq, &mut p)?),
+            FrameKind::Applied => Frame::Applied(Applied::read(seq, ack, &mut p)?),
             FrameKind::Error => {
                 let [code, byte_len] = p.fixed()?;
                 let code =
@@ -475,97 +493,4 @@ pub(super) fn decode_ids(list: &'static str, bytes: &[u8]) -> Result<Vec<u32>, F
         ids.push(id);
     }
     Ok(ids)
-}
-
-struct Writer(Vec<u8>);
-
-impl Writer {
-    fn word(&mut self, w: u32) {
-        self.0.extend_from_slice(&w.to_le_bytes());
-    }
-
-    fn words(&mut self, ws: &[u32]) {
-        for &w in ws {
-            self.word(w);
-        }
-    }
-
-    /// The bytes, zero padding to a word.
-    fn bytes(&mut self, b: &[u8]) {
-        self.0.extend_from_slice(b);
-        self.0.resize(self.0.len().next_multiple_of(4), 0);
-    }
-
-    fn f32(&mut self, v: f32) {
-        self.word(v.to_bits());
-    }
-
-    /// `[byte_len]`, the bytes, zero padding to a word.
-    fn text(&mut self, s: &str) {
-        self.word(len_u32(s.len()));
-        self.0.extend_from_slice(s.as_bytes());
-        let pad = s.len().next_multiple_of(4) - s.len();
-        self.0.extend_from_slice(&[0; 3][..pad]);
-    }
-}
-
-/// The payload of one frame, consumed front to back.
-struct Reader<'a> {
-    kind: FrameKind,
-    rest: &'a [u8],
-    /// Words in the whole payload.
-    words: usize,
-}
-
-impl<'a> Reader<'a> {
-    fn consumed(&self) -> u64 {
-        (self.words - self.rest.len() / 4) as u64
-    }
-
-    /// The payload does not have the `expected` words its fields call for.
-    fn size_error(&self, expected_after_consumed: u64) -> FrameError {
-        FrameError::PayloadSize {
-            kind: self.kind,
-            expected: self.consumed().saturating_add(expected_after_consumed),
-            actual: self.words,
-        }
-    }
-
-    /// The next `N` words, which must be there.
-    fn fixed<const N: usize>(&mut self) -> Result<[u32; N], FrameError> {
-        let Some((head, rest)) = self.rest.split_at_checked(N * 4) else {
-            return Err(self.size_error(N as u64));
-        };
-        self.rest = rest;
-        let mut out = [0; N];
-        fill_words(&mut out, head);
-        Ok(out)
-    }
-
-    /// All the remaining words, which must be exactly `n`.
-    fn tail(&mut self, n: u64) -> Result<&'a [u8], FrameError> {
-        if (self.rest.len() / 4) as u64 != n {
-            return Err(self.size_error(n));
-        }
-        Ok(std::mem::take(&mut self.rest))
-    }
-
-    /// The rest of the payload as `byte_len` bytes of UTF-8 plus zero padding to a word.
-    fn text(&mut self, field: &'static str, byte_len: u32) -> Result<String, FrameError> {
-        let n = u64::from(byte_len);
-        let padded = self.tail(n.div_ceil(4))?;
-        let split = usize::try_from(byte_len)
-            .ok()
-            .and_then(|at| padded.split_at_checked(at));
-        let Some((text, padding)) = split else {
-            return Err(self.size_error(n.div_ceil(4)));
-        };
-        if padding.iter().any(|&b| b != 0) {
-            return Err(FrameError::NonZeroPadding { field });
-        }
-        match std::str::from_utf8(text) {
-            Ok(s) => Ok(s.to_owned()),
-            Err(_) => Err(FrameError::InvalidUtf8 { field }),
-        }
-    }
 }

@@ -15,7 +15,7 @@ pub enum FrameError {
     BadMagic { found: u32 },
     #[error("unsupported protocol version {found}, this build supports version {supported}")]
     UnsupportedVersion { found: u32, supported: u32 },
-    #[error("unknown frame kind {kind} (expected 1 to 7)")]
+    #[error("unknown frame kind {kind} (expected 1 to 9)")]
     UnknownKind { kind: u32 },
     #[error("{kind} frame has ack {ack}, it must be 0")]
     NonZeroAck { kind: FrameKind, ack: u32 },
@@ -40,7 +40,7 @@ pub enum FrameError {
     InvalidUtf8 { field: &'static str },
     #[error("padding after {field} is not zero")]
     NonZeroPadding { field: &'static str },
-    #[error("unknown error code {code} (expected 1 to 6)")]
+    #[error("unknown error code {code} (expected 1 to 8)")]
     UnknownErrorCode { code: u32 },
     #[error("delta removes id {id}, which is not in the visible set")]
     RemovedAbsent { id: u32 },

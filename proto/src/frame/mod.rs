@@ -15,9 +15,9 @@
 //! | word | field            | meaning                                                        |
 //! |-----:|------------------|----------------------------------------------------------------|
 //! | 0    | `magic`          | [`MAGIC`] `0x4C434D48`: bytes `48 4D 43 4C`, ASCII `HMCL`       |
-//! | 1    | `version \| kind << 16` | low 16 bits: [`PROTOCOL_VERSION`] (currently 3); high 16 bits: [`FrameKind`], 1 Hello, 2 Pose, 3 Full, 4 Delta, 5 Error, 6 FullLod, 7 DeltaLod |
+//! | 1    | `version \| kind << 16` | low 16 bits: [`PROTOCOL_VERSION`] (currently 4); high 16 bits: [`FrameKind`], 1 Hello, 2 Pose, 3 Full, 4 Delta, 5 Error, 6 FullLod, 7 DeltaLod, 8 Transforms, 9 Applied |
 //! | 2    | `seq`            | the sender's sequence number (see below)                      |
-//! | 3    | `ack`            | Full/Delta/Error: the pose `seq` answered, 0 if none; Hello and Pose: always 0 |
+//! | 3    | `ack`            | Full/Delta/Error: the pose `seq` answered, 0 if none; Applied: the Transforms `seq`; Hello, Pose and Transforms: always 0 |
 //!
 //! `seq` is the client's pose sequence number in a Pose frame, and the server's frame
 //! counter for that client in the frames the server sends.
@@ -30,11 +30,14 @@
 //! |-----------|-----------------|-------------------------------------------------------------------------|
 //! | 1 Hello   | server → client | `[object_count][json_byte_len]` JSON bytes (UTF-8, zero-padded to a word) |
 //! | 2 Pose    | client → server | `[flags][px][py][pz][qx][qy][qz][qw][fov_y_deg][width][height][near][far]` (13 words), then `[ipd_m][convergence_m]` with flag bit 1 |
-//! | 3 Full    | server → client | stats (5 words) `[count]` `ids[count]`                                   |
-//! | 4 Delta   | server → client | stats (5 words) `[added_count \| removed_count << 16]` `added[added_count]` `removed[removed_count]` |
+//! | 3 Full    | server → client | stats (6 words) `[count]` `ids[count]`                                   |
+//! | 4 Delta   | server → client | stats (6 words) `[added_count \| removed_count << 16]` `added[added_count]` `removed[removed_count]` |
 //! | 5 Error   | server → client | `[code][byte_len]` message bytes (UTF-8, zero-padded to a word)          |
 //! | 6 FullLod | server → client | as Full, then `levels`: one byte per ID, zero-padded to a word          |
-//! | 7 DeltaLod | server → client | stats (5 words) `[added_count \| removed_count << 16]` `[changed_count]` `added[]` `removed[]` `changed[]`, then one byte per added ID and per changed ID, zero-padded |
+//! | 7 DeltaLod | server → client | stats (6 words) `[added_count \| removed_count << 16]` `[changed_count]` `added[]` `removed[]` `changed[]`, then one byte per added ID and per changed ID, zero-padded |
+//!
+//! | 8 Transforms | client → server | `[horizon_ms][count]`, then per object 20 words `[id][matrix: 12][velocity: 3][angular_velocity: 3][valid_ms]` |
+//! | 9 Applied | server → client | `[version_lo][version_hi][applied]`                                       |
 //!
 //! - **Hello**: the JSON is opaque to the codec (the server puts its `SceneInfo` and the
 //!   like there); the decoder only checks that it is UTF-8. `object_count` is also what
@@ -61,7 +64,14 @@
 //!   it. In Rust they are [`VisibleFull::levels`] and [`VisibleDelta::lod`]; the kind
 //!   follows from whether those are `Some`.
 //!
-//! The stats block of Full and Delta is 5 `u32` words ([`FrameStats`]):
+//! - **Transforms / Applied** (version 4): a writer moves objects over its stream
+//!   ([`TransformsFrame`]: placements relative to the scene file as the first three rows
+//!   of the column-major 4×4, velocities, validity; IDs strictly ascending; an optional
+//!   `f32` is the word [`motion::NO_VALUE`] when absent); the server answers with the
+//!   scene version the update made ([`Applied`], `ack` = the update's `seq`) or an Error
+//!   frame (`invalid_transform`, `unauthorized`).
+//!
+//! The stats block of Full and Delta is 6 `u32` words ([`FrameStats`]):
 //!
 //! | word | field            | meaning                                                       |
 //! |-----:|------------------|---------------------------------------------------------------|
@@ -70,6 +80,7 @@
 //! | 2    | `dropped_poses`  | superseded poses dropped since the previous frame sent to this client |
 //! | 3    | `gpu_us`         | GPU time in microseconds (saturating)                         |
 //! | 4    | `total_us`       | total cull time in microseconds (saturating)                  |
+//! | 5    | `scene_version`  | the scene version the set was culled at, low 32 bits (version 4) |
 //!
 //! The rest is derived by the client and not sent: the scene's object count is the
 //! Hello's `object_count`, objects culled by the frustum test are `object_count −
@@ -78,7 +89,8 @@
 //! set once the frame is applied ([`FrameStats::culled_by_occlusion`]).
 //!
 //! Error codes ([`ErrorCode`]): 1 `malformed_frame`, 2 `unsupported_version`,
-//! 3 `invalid_pose`, 4 `overloaded`, 5 `internal`, 6 `unknown_scene`.
+//! 3 `invalid_pose`, 4 `overloaded`, 5 `internal`, 6 `unknown_scene`,
+//! 7 `invalid_transform`, 8 `unauthorized`.
 //!
 //! # Why this shape
 //!
@@ -87,8 +99,9 @@
 //! - **Small deltas**: at walking speed most deltas change nothing or a few IDs, so the
 //!   fixed part dominates their size. Version 2 dropped everything a client can derive or
 //!   read off the message length (version 1 had a separate kind word, a payload-length
-//!   word, three derivable stats words and two count words): an empty delta is 40 bytes
-//!   instead of 64, against 440 bytes for a full frame of 100 visible IDs.
+//!   word, three derivable stats words and two count words): an empty delta was 40 bytes
+//!   instead of 64, against 440 bytes for a full frame of 100 visible IDs (version 4's
+//!   scene version word makes them 44 and 444).
 //! - **Little-endian 32-bit words** are what a browser reads natively: a `DataView` with
 //!   `getUint32(offset, true)` / `getFloat32(offset, true)`, or a `Uint32Array` over the
 //!   frame's `ArrayBuffer` (every frame is word-aligned, and on every browser platform
@@ -124,7 +137,7 @@
 //! let full = Frame::Full(VisibleFull { seq: 1, ack: 7, stats, ids: vec![2, 3, 9], levels: None });
 //! let bytes = full.encode();
 //! assert_eq!(&bytes[..4], b"HMCL");
-//! assert_eq!(bytes.len(), 16 + 4 * (5 + 1 + 3));
+//! assert_eq!(bytes.len(), 16 + 4 * (6 + 1 + 3));
 //! assert_eq!(Frame::decode(&bytes), Ok(full));
 //!
 //! // The next answer as a delta, and the client applying it.
@@ -140,17 +153,22 @@
 //! assert_eq!(stats.culled_by_frustum(12), 7);
 //! assert_eq!(received.culled_by_occlusion(visible.len()), 2);
 //!
-//! // A delta with no change is the header, the stats and the counts word: 40 bytes.
+//! // A delta with no change is the header, the stats and the counts word: 44 bytes.
 //! let empty = Frame::Delta(VisibleDelta { seq: 3, ack: 9, stats, ..VisibleDelta::default() });
-//! assert_eq!(empty.encoded_len(), 40);
+//! assert_eq!(empty.encoded_len(), 44);
 //! ```
 //!
-//! Files: this one holds the constants and frame types; `codec` encodes, decodes and
-//! validates; `delta` computes and applies deltas; `error` says why a frame was refused.
+//! Files: this one holds the constants and frame types; `stats` the stats block;
+//! `motion` the writer's frames; `codec` encodes, decodes and validates, with `words`
+//! (the word writer and reader); `delta` computes and applies deltas; `error` says why
+//! a frame was refused.
 
 mod codec;
 mod delta;
 mod error;
+pub mod motion;
+mod stats;
+mod words;
 
 use std::fmt;
 
@@ -158,6 +176,8 @@ use crate::{Pose, Stereo};
 
 pub use delta::{apply_delta, apply_delta_with_levels, diff, diff_levels};
 pub use error::FrameError;
+pub use motion::{Applied, MovedObject, TransformsFrame};
+pub use stats::FrameStats;
 
 /// First word of every frame: the bytes `48 4D 43 4C` (ASCII `HMCL`) read as a
 /// little-endian `u32`.
@@ -174,7 +194,7 @@ pub const HEADER_BYTES: usize = HEADER_WORDS * 4;
 pub const MAX_FRAME_BYTES: usize = 16 << 20;
 
 /// Words in the stats block of Full and Delta frames.
-pub const STATS_WORDS: usize = 5;
+pub const STATS_WORDS: usize = 6;
 
 /// Most IDs a Delta frame carries in each of its lists: both counts share one word,
 /// 16 bits each. A bigger change goes out as a Full frame (see [`VisibleDelta::fits`]).
@@ -214,11 +234,15 @@ pub enum FrameKind {
     FullLod = 6,
     /// Server → client, changes to the visible set and to levels of detail.
     DeltaLod = 7,
+    /// Client → server, objects moved by a writer.
+    Transforms = 8,
+    /// Server → client, a writer's update applied: the scene version it made.
+    Applied = 9,
 }
 
 impl FrameKind {
     /// All kinds, in wire-code order.
-    pub const ALL: [FrameKind; 7] = [
+    pub const ALL: [FrameKind; 9] = [
         FrameKind::Hello,
         FrameKind::Pose,
         FrameKind::Full,
@@ -226,6 +250,8 @@ impl FrameKind {
         FrameKind::Error,
         FrameKind::FullLod,
         FrameKind::DeltaLod,
+        FrameKind::Transforms,
+        FrameKind::Applied,
     ];
 
     /// The kind with wire code `code`, if any.
@@ -234,7 +260,7 @@ impl FrameKind {
     }
 
     /// Lowercase name (`hello`, `pose`, `full`, `delta`, `error`, `full_lod`,
-    /// `delta_lod`).
+    /// `delta_lod`, `transforms`, `applied`).
     pub fn name(self) -> &'static str {
         match self {
             FrameKind::Hello => "hello",
@@ -244,6 +270,8 @@ impl FrameKind {
             FrameKind::Error => "error",
             FrameKind::FullLod => "full_lod",
             FrameKind::DeltaLod => "delta_lod",
+            FrameKind::Transforms => "transforms",
+            FrameKind::Applied => "applied",
         }
     }
 }
@@ -270,17 +298,23 @@ pub enum ErrorCode {
     Internal = 5,
     /// The scene the connection refers to does not exist (any more).
     UnknownScene = 6,
+    /// A writer's update was refused (unknown object, bad numbers, too many...).
+    InvalidTransform = 7,
+    /// A writer's update needs the write token on the stream's upgrade request.
+    Unauthorized = 8,
 }
 
 impl ErrorCode {
     /// All codes, in wire-code order.
-    pub const ALL: [ErrorCode; 6] = [
+    pub const ALL: [ErrorCode; 8] = [
         ErrorCode::MalformedFrame,
         ErrorCode::UnsupportedVersion,
         ErrorCode::InvalidPose,
         ErrorCode::Overloaded,
         ErrorCode::Internal,
         ErrorCode::UnknownScene,
+        ErrorCode::InvalidTransform,
+        ErrorCode::Unauthorized,
     ];
 
     /// The code with wire value `code`, if any.
@@ -289,7 +323,7 @@ impl ErrorCode {
     }
 
     /// The snake_case name (`malformed_frame`, `unsupported_version`, `invalid_pose`,
-    /// `overloaded`, `internal`, `unknown_scene`).
+    /// `overloaded`, `internal`, `unknown_scene`, `invalid_transform`, `unauthorized`).
     pub fn name(self) -> &'static str {
         match self {
             ErrorCode::MalformedFrame => "malformed_frame",
@@ -298,6 +332,8 @@ impl ErrorCode {
             ErrorCode::Overloaded => "overloaded",
             ErrorCode::Internal => "internal",
             ErrorCode::UnknownScene => "unknown_scene",
+            ErrorCode::InvalidTransform => "invalid_transform",
+            ErrorCode::Unauthorized => "unauthorized",
         }
     }
 }
@@ -305,65 +341,6 @@ impl ErrorCode {
 impl fmt::Display for ErrorCode {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
-    }
-}
-
-/// The 5-word statistics block of Full and Delta frames, in wire order.
-///
-/// Only what a client cannot work out itself travels: the scene's object count is in the
-/// [`Hello`], and the objects culled by each test follow from it, `candidates` and the
-/// size of the visible set ([`FrameStats::culled_by_frustum`],
-/// [`FrameStats::culled_by_occlusion`]).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
-pub struct FrameStats {
-    /// Objects whose bounds intersect the view frustum.
-    pub candidates: u32,
-    /// Occluders rendered into the occlusion map.
-    pub occluders_used: u32,
-    /// Superseded poses dropped since the previous frame sent to this client.
-    pub dropped_poses: u32,
-    /// GPU time in microseconds (saturating).
-    pub gpu_us: u32,
-    /// Total cull time in microseconds (saturating).
-    pub total_us: u32,
-}
-
-impl FrameStats {
-    /// Objects removed by the frustum test: `objects − candidates`, where `objects` is the
-    /// scene's object count (the Hello's `object_count`). Saturates at 0 for inconsistent
-    /// input.
-    pub fn culled_by_frustum(&self, objects: u32) -> u32 {
-        objects.saturating_sub(self.candidates)
-    }
-
-    /// In-frustum objects removed by the occlusion test: `candidates − visible`, where
-    /// `visible` is the size of the visible set this frame describes (a Full frame's
-    /// `ids.len()`, or the set once a Delta is applied). Saturates at 0 for inconsistent
-    /// input.
-    pub fn culled_by_occlusion(&self, visible: usize) -> u32 {
-        let visible = u32::try_from(visible).unwrap_or(u32::MAX);
-        self.candidates.saturating_sub(visible)
-    }
-
-    fn to_words(self) -> [u32; STATS_WORDS] {
-        [
-            self.candidates,
-            self.occluders_used,
-            self.dropped_poses,
-            self.gpu_us,
-            self.total_us,
-        ]
-    }
-
-    fn from_words(w: [u32; STATS_WORDS]) -> FrameStats {
-        let [candidates, occluders_used, dropped_poses, gpu_us, total_us] = w;
-        FrameStats {
-            candidates,
-            occluders_used,
-            dropped_poses,
-            gpu_us,
-            total_us,
-        }
     }
 }
 
@@ -549,6 +526,10 @@ pub enum Frame {
     Delta(VisibleDelta),
     /// Kind 5, server → client.
     Error(ErrorFrame),
+    /// Kind 8, client → server.
+    Transforms(TransformsFrame),
+    /// Kind 9, server → client.
+    Applied(Applied),
 }
 
 impl From<Hello> for Frame {

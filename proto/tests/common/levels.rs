@@ -14,8 +14,8 @@ pub fn lod_cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             full_lod(&[1, 2], &[]),
             E::PayloadSize {
                 kind: FrameKind::FullLod,
-                expected: 5 + 1 + 3,
-                actual: 5 + 1 + 2,
+                expected: 6 + 1 + 3,
+                actual: 6 + 1 + 2,
             },
         ),
         (
@@ -43,8 +43,8 @@ pub fn lod_cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             delta_lod(&[4], &[], &[7], &[]),
             E::PayloadSize {
                 kind: FrameKind::DeltaLod,
-                expected: 5 + 2 + 2 + 1,
-                actual: 5 + 2 + 2,
+                expected: 6 + 2 + 2 + 1,
+                actual: 6 + 2 + 2,
             },
         ),
         (

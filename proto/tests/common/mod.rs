@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod levels;
+pub mod motion;
 
 use homcull_proto::PROTOCOL_VERSION;
 use homcull_proto::frame::{FrameError, MAGIC};
@@ -73,8 +74,25 @@ pub fn frame(kind: u32, seq: u32, ack: u32, payload: &[u32]) -> Vec<u8> {
     bytes(&w)
 }
 
-pub fn stats() -> [u32; 5] {
-    [9, 3, 0, 100, 200]
+pub fn stats() -> [u32; 6] {
+    [9, 3, 0, 100, 200, 7]
+}
+
+/// A Transforms payload (horizon absent) moving objects `ids` to the identity, still.
+pub fn moved_objects(ids: &[u32]) -> Vec<u32> {
+    let mut p = vec![homcull_proto::frame::motion::NO_VALUE, ids.len() as u32];
+    for &id in ids {
+        p.push(id);
+        p.extend(
+            [
+                1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0,
+            ]
+            .map(f32::to_bits),
+        );
+        p.extend([0u32; 6]);
+        p.push(homcull_proto::frame::motion::NO_VALUE);
+    }
+    p
 }
 
 pub fn full(ids: &[u32]) -> Vec<u8> {

@@ -5,7 +5,8 @@
 use glam::Vec3;
 use homcull_proto::PoseMessage;
 use homcull_proto::frame::{
-    ErrorCode, ErrorFrame, Frame, FrameStats, VisibleDelta, VisibleFull, diff, diff_levels,
+    ErrorCode, ErrorFrame, Frame, FrameError, FrameStats, VisibleDelta, VisibleFull, diff,
+    diff_levels,
 };
 use std::time::Instant;
 
@@ -70,6 +71,8 @@ pub(super) fn frame_stats(r: &PoseResult, dropped: u32, started: Instant) -> Fra
         dropped_poses: dropped,
         gpu_us: us(r.stats.gpu_ms),
         total_us: us(started.elapsed().as_secs_f64() * 1e3),
+        // The low 32 bits: what the wire carries.
+        scene_version: r.stats.scene_version as u32,
     }
 }
 
@@ -82,8 +85,9 @@ fn bad(code: ErrorCode, message: String) -> ErrorFrame {
     }
 }
 
-pub(super) fn parse_binary(bytes: &[u8]) -> Result<Pending, ErrorFrame> {
-    match Frame::decode(bytes) {
+/// The pose of a decoded binary frame, or the error to answer.
+pub(super) fn parse_frame(decoded: Result<Frame, FrameError>) -> Result<Pending, ErrorFrame> {
+    match decoded {
         Ok(Frame::Pose(p)) => {
             let pose = p.to_pose();
             let eyes = stereo::eyes(&pose).map_err(|e| ErrorFrame {

@@ -43,7 +43,7 @@ use homcull_proto::{CullOptions, DebVariant, LodThresholds, Method, PROTOCOL_VER
 use serde::Deserialize;
 use tokio::sync::{Mutex, Notify, mpsc};
 
-use frames::{Sent, frame_stats, parse_binary, parse_text, visibility_frame};
+use frames::{Sent, frame_stats, parse_frame, parse_text, visibility_frame};
 use liveness::{Liveness, Tick};
 
 use super::error::ApiError;
@@ -239,6 +239,9 @@ async fn client(
     let (sink, mut incoming) = socket.split();
     let sink = Arc::new(Mutex::new(sink));
     let send_timeout = Duration::from_secs(state.config.ws_send_timeout_s);
+    // The server's frame counter for this client, shared with the reader (which
+    // answers writers' updates itself).
+    let counter = Arc::new(AtomicU32::new(0));
     let mut seq: u32 = 0;
     let hello = Frame::Hello(Hello {
         seq,
@@ -275,6 +278,7 @@ async fn client(
         let mailbox = mailbox.clone();
         let liveness = liveness.clone();
         let sink = sink.clone();
+        let counter = counter.clone();
         tokio::spawn(async move {
             let mut bad = 0u32;
             let mut motion = MotionEstimator::default();
@@ -286,7 +290,20 @@ async fn client(
                     Ok(Some(msg)) => msg,
                 };
                 let parsed = match msg {
-                    Ok(Message::Binary(b)) => parse_binary(&b),
+                    Ok(Message::Binary(b)) => {
+                        let decoded = Frame::decode(&b);
+                        if let Ok(Frame::Transforms(t)) = &decoded {
+                            idle_at = tokio::time::Instant::now() + idle;
+                            bad = 0;
+                            let seq = counter.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
+                            let reply = writer.apply_frame(seq, t).await;
+                            if send(&sink, reply, send_timeout).await.is_err() {
+                                break ReaderEnd::Gone;
+                            }
+                            continue;
+                        }
+                        parse_frame(decoded)
+                    }
                     Ok(Message::Text(t)) if writer::is_update(&t) => {
                         idle_at = tokio::time::Instant::now() + idle;
                         let (reply, malformed) = writer.apply(&t).await;
@@ -371,7 +388,7 @@ async fn client(
                 continue;
             }
             Some(e) = err_rx.recv() => {
-                seq = seq.wrapping_add(1);
+                seq = counter.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
                 if send(&sink, Frame::Error(ErrorFrame { seq, ..e }), send_timeout).await.is_err() {
                     break None;
                 }
@@ -382,7 +399,7 @@ async fn client(
                 let Ok((end, rest)) = ended else { break None };
                 // Error reports still queued go out before the close frame.
                 while let Ok(e) = err_rx.try_recv() {
-                    seq = seq.wrapping_add(1);
+                    seq = counter.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
                     let _ = send(&sink, Frame::Error(ErrorFrame { seq, ..e }), send_timeout).await;
                 }
                 incoming_left = Some(rest);
@@ -411,7 +428,7 @@ async fn client(
             .cull_preferring(scene.engine.clone(), cams, options, prefer)
             .await
             .map(|results| smoothed(results, &mut held, &p.eyes, &scene));
-        seq = seq.wrapping_add(1);
+        seq = counter.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
         let frame = match answer {
             Err(e) => Frame::Error(ErrorFrame {
                 seq,

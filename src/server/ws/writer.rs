@@ -1,20 +1,23 @@
 //! Writers on a stream: a client may move objects over its WebSocket instead of
-//! `POST /v1/scenes/{id}/transforms`, one text message per update, without an HTTP
-//! request each:
+//! `POST /v1/scenes/{id}/transforms`, without an HTTP request each:
 //!
-//! ```json
-//! {"seq": 7, "transforms": {"objects": [{"id": 12, "translation": [1, 0, 0]}], "horizon_ms": 100}}
-//! ```
+//! - a text message per update,
+//!   `{"seq": 7, "transforms": {"objects": [{"id": 12, "translation": [1, 0, 0]}], "horizon_ms": 100}}`,
+//!   answered with a text message `{"transforms": {"seq": 7, "version": 3, "applied": 1}}`
+//!   or `{"transforms": {"seq": 7, "error": {"code", "message"}}}` (the REST error codes;
+//!   seq 0 when the message did not parse);
+//! - or a binary Transforms frame (kind 8, `homcull_proto::frame::TransformsFrame`: no
+//!   JSON to parse, for high rates), answered with an Applied frame (kind 9: the
+//!   version) or an Error frame (`invalid_transform`, `unauthorized`), `ack` the
+//!   update's `seq`.
 //!
-//! checked and applied as the REST route does (all or nothing), and answered with a
-//! text message `{"transforms": {"seq": 7, "version": 3, "applied": 1}}` or
-//! `{"transforms": {"seq": 7, "error": {"code", "message"}}}` (the REST error codes;
-//! seq 0 when the message did not parse). When the server has an API token, only a
-//! stream whose upgrade request carried it may write (`unauthorized` otherwise).
+//! Either is checked and applied as the REST route does (all or nothing). When the
+//! server has an API token, only a stream whose upgrade request carried it may write.
 
 use std::sync::{Arc, Mutex};
 
 use homcull_proto::TransformsRequest;
+use homcull_proto::frame::{Applied, ErrorCode, ErrorFrame, Frame, TransformsFrame};
 use serde::Deserialize;
 
 use crate::core::dynamic::Dynamics;
@@ -42,7 +45,7 @@ pub(super) struct Writer {
 }
 
 impl Writer {
-    /// Applies one update message and returns the reply to send, and whether the
+    /// Applies one update text message and returns the reply to send, and whether the
     /// message was malformed.
     pub(super) async fn apply(&self, text: &str) -> (String, bool) {
         let m: WriterMessage = match serde_json::from_str(text) {
@@ -52,35 +55,58 @@ impl Writer {
                 return (refused(0, &e), true);
             }
         };
+        let reply = match self.apply_request(m.transforms).await {
+            Ok((version, applied)) => serde_json::json!(
+                {"transforms": {"seq": m.seq, "version": version, "applied": applied}}
+            )
+            .to_string(),
+            Err(e) => refused(m.seq, &e),
+        };
+        (reply, false)
+    }
+
+    /// Applies a binary update and returns the frame (server counter `seq`) to answer.
+    pub(super) async fn apply_frame(&self, seq: u32, t: &TransformsFrame) -> Frame {
+        match self.apply_request(t.to_request()).await {
+            Ok((version, applied)) => Frame::Applied(Applied {
+                seq,
+                ack: t.seq,
+                version,
+                applied,
+            }),
+            Err(e) => Frame::Error(ErrorFrame {
+                seq,
+                ack: t.seq,
+                code: match e.code {
+                    "unauthorized" => ErrorCode::Unauthorized,
+                    "internal" => ErrorCode::Internal,
+                    _ => ErrorCode::InvalidTransform,
+                },
+                message: e.message,
+            }),
+        }
+    }
+
+    /// The version an update made and the objects it moved, or why it was refused.
+    async fn apply_request(&self, req: TransformsRequest) -> Result<(u64, u32), ApiError> {
         if !self.may_write {
-            let e = ApiError::new(
+            return Err(ApiError::new(
                 axum::http::StatusCode::UNAUTHORIZED,
                 "unauthorized",
                 "this server needs `Authorization: Bearer TOKEN` on the stream's upgrade request to move objects",
-            );
-            return (refused(m.seq, &e), false);
+            ));
         }
         let (dynamics, max) = (self.dynamics.clone(), self.max_objects);
-        let applied = m.transforms.objects.len() as u32;
+        let applied = req.objects.len() as u32;
         // Blocking: the first update of a scene indexes its vertex ranges.
-        let res = tokio::task::spawn_blocking(move || {
+        let version = tokio::task::spawn_blocking(move || {
             let mut d = dynamics.lock().unwrap_or_else(|p| p.into_inner());
-            d.apply(&m.transforms, max)
+            d.apply(&req, max)
         })
-        .await;
-        let reply = match res {
-            Ok(Ok(version)) => {
-                metrics::counter!("homcull_object_transforms_total").increment(applied as u64);
-                serde_json::json!({"transforms": {"seq": m.seq, "version": version, "applied": applied}})
-                    .to_string()
-            }
-            Ok(Err(e)) => refused(m.seq, &ApiError::from(e)),
-            Err(e) => refused(
-                m.seq,
-                &ApiError::internal(format!("transforms task failed: {e}")),
-            ),
-        };
-        (reply, false)
+        .await
+        .map_err(|e| ApiError::internal(format!("transforms task failed: {e}")))??;
+        metrics::counter!("homcull_object_transforms_total").increment(applied as u64);
+        Ok((version, applied))
     }
 }
 
