@@ -320,7 +320,7 @@ fn horizon(scene: Scene) {
                     objects: moves
                         .iter()
                         .map(|t| {
-                            let from = Placement::of(t, &scene);
+                            let from = placement_matrix(t, &scene);
                             let c = placed_bounds(&scene, t.id, from).center();
                             let v = Vec3::from(t.velocity.unwrap());
                             let w = Vec3::from(t.angular_velocity.unwrap());
@@ -354,15 +354,11 @@ fn horizon(scene: Scene) {
 }
 
 /// The matrix a translation/rotation update stands for (as `core::dynamic` reads it).
-struct Placement;
-
-impl Placement {
-    fn of(t: &ObjectTransform, scene: &Scene) -> Mat4 {
-        let loaded = scene.objects[t.id as usize].aabb;
-        homcull::core::dynamic::Placement::from_update(t, loaded)
-            .expect("valid")
-            .matrix
-    }
+fn placement_matrix(t: &ObjectTransform, scene: &Scene) -> Mat4 {
+    let loaded = scene.objects[t.id as usize].aabb;
+    homcull::core::dynamic::Placement::from_update(t, loaded)
+        .expect("valid")
+        .matrix
 }
 
 #[test]

@@ -104,6 +104,18 @@ async fn streams_that_ask_are_told_where_moved_objects_are() {
     srv.stop().await;
 }
 
+/// The demo's stream, its upgrade request carrying `token` as a bearer token if given.
+async fn open(srv: &TestServer, token: Option<&str>) -> common::ws::Ws {
+    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+    let url = srv.ws_url("/v1/scenes/demo/stream");
+    let mut req = url.as_str().into_client_request().unwrap();
+    if let Some(t) = token {
+        req.headers_mut()
+            .insert("authorization", format!("Bearer {t}").parse().unwrap());
+    }
+    tokio_tungstenite::connect_async(req).await.unwrap().0
+}
+
 /// Writers on a stream: updates as text messages, answered with the version or the
 /// REST error code; when the server has a token, only a stream upgraded with it may
 /// write, and the poses of the same stream are still answered.
@@ -111,17 +123,7 @@ async fn streams_that_ask_are_told_where_moved_objects_are() {
 async fn a_stream_may_move_objects() {
     use futures_util::SinkExt;
     use tokio_tungstenite::tungstenite::Message;
-    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
     let srv = TestServer::start(|c| c.api_token = Some("s3cret".into())).await;
-    let url = srv.ws_url("/v1/scenes/demo/stream");
-    let open = |token: Option<&'static str>| {
-        let mut req = url.as_str().into_client_request().unwrap();
-        if let Some(t) = token {
-            req.headers_mut()
-                .insert("authorization", format!("Bearer {t}").parse().unwrap());
-        }
-        tokio_tungstenite::connect_async(req)
-    };
     let update = |seq: u32, body: Value| {
         Message::Text(json!({"seq": seq, "transforms": body}).to_string().into())
     };
@@ -135,7 +137,7 @@ async fn a_stream_may_move_objects() {
         }
     };
     // Without the token: refused, nothing applied.
-    let (mut anon, _) = open(None).await.unwrap();
+    let mut anon = open(&srv, None).await;
     let moving = json!({"objects": [{"id": 3, "translation": [0, 1, 0]}]});
     anon.send(update(1, moving.clone())).await.unwrap();
     let r = reply(&mut anon).await;
@@ -145,7 +147,7 @@ async fn a_stream_may_move_objects() {
     );
     // With it: applied, versions follow; a bad update gets its REST code; a malformed
     // message its own; poses on the same stream are still answered.
-    let (mut ws, _) = open(Some("s3cret")).await.unwrap();
+    let mut ws = open(&srv, Some("s3cret")).await;
     ws.send(update(5, moving)).await.unwrap();
     let r = reply(&mut ws).await;
     assert_eq!(
@@ -186,17 +188,7 @@ async fn binary_transforms_frames_are_applied_and_answered() {
     use futures_util::SinkExt;
     use homcull_proto::frame::{ErrorCode, Frame, MovedObject, TransformsFrame};
     use tokio_tungstenite::tungstenite::Message;
-    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
     let srv = TestServer::start(|c| c.api_token = Some("s3cret".into())).await;
-    let url = srv.ws_url("/v1/scenes/demo/stream");
-    let open = |token: Option<&'static str>| {
-        let mut req = url.as_str().into_client_request().unwrap();
-        if let Some(t) = token {
-            req.headers_mut()
-                .insert("authorization", format!("Bearer {t}").parse().unwrap());
-        }
-        tokio_tungstenite::connect_async(req)
-    };
     let up = |seq: u32, ids: &[u32]| {
         let objects = ids
             .iter()
@@ -222,14 +214,14 @@ async fn binary_transforms_frames_are_applied_and_answered() {
             Ok(v) => panic!("unexpected text {v}"),
         }
     };
-    let (mut anon, _) = open(None).await.unwrap();
+    let mut anon = open(&srv, None).await;
     anon.send(up(1, &[3])).await.unwrap();
     let Frame::Error(e) = next_frame(&mut anon).await else {
         panic!("an error frame")
     };
     assert_eq!((e.code, e.ack), (ErrorCode::Unauthorized, 1));
 
-    let (mut ws, _) = open(Some("s3cret")).await.unwrap();
+    let mut ws = open(&srv, Some("s3cret")).await;
     ws.send(up(21, &[3, 4, 9])).await.unwrap();
     let Frame::Applied(a) = next_frame(&mut ws).await else {
         panic!("an applied frame")

@@ -183,11 +183,6 @@ impl Engine {
         self.dynamics.clone()
     }
 
-    /// The version of the scene the last cull ran on.
-    pub fn version(&self) -> u64 {
-        self.version
-    }
-
     /// Moves to the latest version the writers made, if it is newer.
     pub fn refresh(&mut self) {
         let changes = self

@@ -323,7 +323,10 @@ fn response(
     lod: Option<LodThresholds>,
 ) -> CullResponse {
     let r = PoseResult::union_of(results).expect("one result per eye");
-    let lod = lod.map(|t| lod::levels(eyes, &r.visible, |id| scene.object_bounds(id), &t));
+    let lod = lod.map(|t| {
+        let placed = scene.placements();
+        lod::levels(eyes, &r.visible, |id| placed.bounds(id), &t)
+    });
     CullResponse {
         visible: r.visible,
         lod,

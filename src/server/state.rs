@@ -15,7 +15,6 @@ use super::store::{OccluderCache, Store};
 use super::worker::{SharedEngine, WorkerHandle};
 use crate::core::dynamic::Dynamics;
 use crate::core::engine::Backend;
-use crate::core::geom::Aabb;
 use crate::core::occluders::OccluderParams;
 use crate::core::resident::{Residency, ResidentScene};
 use crate::core::scene::Scene;
@@ -67,13 +66,11 @@ pub struct SceneEntry {
 }
 
 impl SceneEntry {
-    /// Object `id`'s world bounds where it is placed now (the object table gives
-    /// them as loaded).
-    pub fn object_bounds(&self, id: u32) -> Aabb {
-        self.dynamics
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .bounds(id)
+    /// The scene's placements now, locked once for a whole answer:
+    /// [`Dynamics::bounds`] gives an object's world bounds where it is placed (the
+    /// object table gives them as loaded). Not to be held across an await.
+    pub fn placements(&self) -> std::sync::MutexGuard<'_, Dynamics> {
+        self.dynamics.lock().unwrap_or_else(|p| p.into_inner())
     }
 
     /// Makes a scene resident (occluders from `cache` when it fits) on `backend`.

@@ -5,6 +5,8 @@
 //! writers for culls. Placements live in memory only: a restart, or a rescan that
 //! reloads the scene, starts again from the file.
 
+use std::sync::{Arc, Mutex};
+
 use axum::Json;
 use axum::body::Bytes;
 use axum::extract::rejection::BytesRejection;
@@ -14,6 +16,7 @@ use homcull_proto::{TransformsRequest, TransformsResponse};
 use super::error::ApiError;
 use super::routes::body_error;
 use super::state::AppState;
+use crate::core::dynamic::Dynamics;
 
 /// Moves objects: new placements (relative to the loaded scene) and declared motion,
 /// all applied or none; answers the scene version they make.
@@ -29,15 +32,32 @@ pub async fn transforms(
 ) -> Result<Json<TransformsResponse>, ApiError> {
     let req: TransformsRequest = ApiError::parse_json(&body.map_err(body_error)?)?;
     let scene = state.scene(&id)?;
-    let max = state.config.max_transform_objects;
     let applied = req.objects.len() as u32;
+    let version = apply(
+        scene.dynamics.clone(),
+        req,
+        state.config.max_transform_objects,
+    )
+    .await?;
+    Ok(Json(TransformsResponse { version, applied }))
+}
+
+/// Applies one update to a scene's placements (at most `max_objects` objects): the
+/// version it made, or why it was refused. The one path of every writer, REST or
+/// stream.
+pub async fn apply(
+    dynamics: Arc<Mutex<Dynamics>>,
+    req: TransformsRequest,
+    max_objects: usize,
+) -> Result<u64, ApiError> {
+    let applied = req.objects.len() as u64;
     // Blocking: the first update of a scene indexes its vertex ranges.
     let version = tokio::task::spawn_blocking(move || {
-        let mut d = scene.dynamics.lock().unwrap_or_else(|p| p.into_inner());
-        d.apply(&req, max)
+        let mut d = dynamics.lock().unwrap_or_else(|p| p.into_inner());
+        d.apply(&req, max_objects)
     })
     .await
     .map_err(|e| ApiError::internal(format!("transforms task failed: {e}")))??;
-    metrics::counter!("homcull_object_transforms_total").increment(applied as u64);
-    Ok(Json(TransformsResponse { version, applied }))
+    metrics::counter!("homcull_object_transforms_total").increment(applied);
+    Ok(version)
 }

@@ -3,7 +3,7 @@
 //! `PreparedScene` (`core::dynamic` builds it), with the objects that may be moving
 //! marked: their test boxes bound their motion, so only the box test may judge them.
 
-use super::mask::{empty_mask, has_bit};
+use super::mask::has_bit;
 use crate::core::bvh::BoxBvh;
 use crate::core::occluders::{OccluderDb, OccluderParams};
 use crate::core::scene::Scene;
@@ -39,18 +39,6 @@ impl PreparedScene {
             moving: Vec::new(),
             moved_since_build: 0,
         }
-    }
-
-    /// Marks `ids` as moving (see [`PreparedScene::moving`]).
-    pub fn with_moving(mut self, ids: impl IntoIterator<Item = u32>) -> Self {
-        let mut mask = empty_mask(self.scene.objects.len());
-        let mut any = false;
-        for id in ids {
-            super::mask::set_bit(&mut mask, id);
-            any = true;
-        }
-        self.moving = if any { mask } else { Vec::new() };
-        self
     }
 
     /// Whether object `id`'s test boxes bound a motion: only the box test judges it.

@@ -88,10 +88,6 @@ impl Dynamics {
         self.version
     }
 
-    pub fn base(&self) -> &Arc<PreparedScene> {
-        &self.base
-    }
-
     /// Checks `req` whole (at most `max_objects` objects) and applies it: the next
     /// version, or an error and no change at all.
     pub fn apply(

@@ -92,15 +92,18 @@ pub fn advance(base: &PreparedScene, previous: &PreparedScene, changes: &Changes
     } else {
         OccluderDb::from_ids(&scene, base.occluders.params, ids)
     };
-    let moving_ids = (0..n as u32).filter(|&id| has_bit(&moving, id));
     PreparedScene {
         scene,
         bvh,
         occluders,
-        moving: Vec::new(),
+        // Empty when nothing moves (see `PreparedScene::moving`).
+        moving: if moving.iter().any(|&w| w != 0) {
+            moving
+        } else {
+            Vec::new()
+        },
         moved_since_build: if refitted { moved } else { 0 },
     }
-    .with_moving(moving_ids)
 }
 
 /// Places object `id` of `scene` by `p` from its loaded geometry in `base`; returns

@@ -9,7 +9,7 @@
 use std::fmt::Write as _;
 
 use anyhow::Result;
-use homcull_proto::{CullOptions, DebVariant, Method, ObjectTransform, TransformsRequest};
+use homcull_proto::{ObjectTransform, TransformsRequest};
 
 use super::context::{Report, over, progress};
 use super::plot::{Chart, Series};
@@ -53,16 +53,8 @@ pub(super) fn section(r: &mut Report, scenes: &[Loaded]) -> Result<()> {
          |---|---:|---:|---:|---:|---:|---:|",
         p.budget_poses, p.viewport[0], p.viewport[1]
     );
-    let refined = MethodSpec {
-        name: "hom-refine".into(),
-        options: CullOptions {
-            method: Method::Hom,
-            threshold: 1.0,
-            deb: DebVariant::Raster,
-            refine: true,
-            lod: None,
-        },
-    };
+    let refined = MethodSpec::parse("hom-refine", 1.0, Default::default(), true)
+        .map_err(anyhow::Error::msg)?;
     let mut series = Vec::new();
     let picked: Vec<_> = MOVERS
         .iter()

@@ -451,9 +451,10 @@ async fn client(
                 }
                 let stats = frame_stats(&r, mailbox.dropped.swap(0, Ordering::Relaxed), started);
                 let want_full = p.want_full || since_full >= state.config.full_every;
-                let levels = options
-                    .lod
-                    .map(|t| lod::levels(&p.eyes, &r.visible, |id| scene.object_bounds(id), &t));
+                let levels = options.lod.map(|t| {
+                    let placed = scene.placements();
+                    lod::levels(&p.eyes, &r.visible, |id| placed.bounds(id), &t)
+                });
                 let last = Sent {
                     ids: &last_set,
                     levels: last_levels.as_deref(),
@@ -548,12 +549,13 @@ fn smoothed(
     }
     r.visible = held.update(Instant::now(), std::mem::take(&mut r.visible));
     if r.visible.len() != culled.len() {
+        let placed = scene.placements();
         let outside = r
             .visible
             .iter()
             .filter(|id| culled.binary_search(id).is_err())
             .filter(|&&id| {
-                let b = scene.object_bounds(id);
+                let b = placed.bounds(id);
                 !eyes.iter().any(|cam| cam.intersects(&b))
             })
             .count() as u32;

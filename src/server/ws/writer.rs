@@ -22,6 +22,7 @@ use serde::Deserialize;
 
 use crate::core::dynamic::Dynamics;
 use crate::server::error::ApiError;
+use crate::server::transforms;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -96,16 +97,8 @@ impl Writer {
                 "this server needs `Authorization: Bearer TOKEN` on the stream's upgrade request to move objects",
             ));
         }
-        let (dynamics, max) = (self.dynamics.clone(), self.max_objects);
         let applied = req.objects.len() as u32;
-        // Blocking: the first update of a scene indexes its vertex ranges.
-        let version = tokio::task::spawn_blocking(move || {
-            let mut d = dynamics.lock().unwrap_or_else(|p| p.into_inner());
-            d.apply(&req, max)
-        })
-        .await
-        .map_err(|e| ApiError::internal(format!("transforms task failed: {e}")))??;
-        metrics::counter!("homcull_object_transforms_total").increment(applied as u64);
+        let version = transforms::apply(self.dynamics.clone(), req, self.max_objects).await?;
         Ok((version, applied))
     }
 }
