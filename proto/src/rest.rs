@@ -18,6 +18,9 @@ pub struct SceneInfo {
     pub triangles: u32,
     /// Objects selected as occluders by preprocessing.
     pub occluders: u32,
+    /// Objects marked dynamic (see `ObjectInfo::dynamic`).
+    #[serde(default)]
+    pub dynamic_objects: u32,
     /// World bounds `[min, max]` of all objects.
     pub bounds: [[f32; 3]; 2],
     /// Size in bytes of the scene's GLB (`GET /v1/scenes/{id}/glb`).
@@ -57,6 +60,10 @@ pub struct ObjectInfo {
     pub triangles: u32,
     /// True when preprocessing selected the object as an occluder.
     pub occluder: bool,
+    /// Marked as one that will move (glTF node extras `"homcull": {"dynamic": true}`
+    /// or the upload's `dynamic` parameter); any object may move, marked or not.
+    #[serde(default)]
+    pub dynamic: bool,
 }
 
 /// `GET /v1/scenes/{id}/objects`.

@@ -149,6 +149,7 @@ fn object_table(scene: &Scene, occluders: &OccluderDb) -> Vec<ObjectInfo> {
             aabb: [o.aabb.min.to_array(), o.aabb.max.to_array()],
             triangles: o.triangles(),
             occluder: occluder_set.contains(&o.id),
+            dynamic: o.dynamic,
         })
         .collect()
 }

@@ -22,6 +22,7 @@ use super::error::ApiError;
 use super::state::{AppState, GlbSource, SceneEntry};
 use crate::core::camera::{Camera, stereo};
 use crate::core::cull::PoseResult;
+use crate::core::dynamic::marks;
 use crate::core::lod;
 use crate::core::scene::load_glb_bytes_within;
 
@@ -78,6 +79,9 @@ pub async fn list_scenes(State(state): State<AppState>) -> Json<SceneList> {
 pub struct UploadQuery {
     /// Name of the scene (default `upload`).
     pub name: Option<String>,
+    /// Objects to mark dynamic, besides those the file marks: comma-separated object
+    /// names, or prefixes ending in `*` (e.g. `car_*,door_1`); each must match.
+    pub dynamic: Option<String>,
 }
 
 pub(super) fn body_error(e: BytesRejection) -> ApiError {
@@ -117,12 +121,17 @@ pub async fn upload_scene(
             "the body is empty; send a GLB file",
         ));
     }
+    let dynamic = match q.dynamic.as_deref() {
+        None => Vec::new(),
+        Some(list) => marks::parse_patterns(list)
+            .map_err(|e| ApiError::bad_request("bad_dynamic", e.to_string()))?,
+    };
     let st = state.clone();
     let limits = state.config.load_limits();
     let claim = Arc::new(UploadClaim::default());
     let task_claim = claim.clone();
     let task = tokio::task::spawn_blocking(move || -> Result<Arc<SceneEntry>, ApiError> {
-        let scene = load_glb_bytes_within(&body, &name, &limits)
+        let mut scene = load_glb_bytes_within(&body, &name, &limits)
             .map_err(|e| ApiError::bad_request("invalid_glb", format!("not a usable GLB: {e}")))?;
         if scene.objects.is_empty() {
             return Err(ApiError::bad_request(
@@ -130,7 +139,9 @@ pub async fn upload_scene(
                 "the file has no mesh-bearing nodes",
             ));
         }
-        st.create(&name, &body, scene, || task_claim.store())
+        marks::mark(&mut scene, &dynamic)
+            .map_err(|e| ApiError::bad_request("bad_dynamic", e.to_string()))?;
+        st.create(&name, &body, &dynamic, scene, || task_claim.store())
             .map_err(|e| ApiError::internal(format!("storing the scene: {e}")))?
             .ok_or_else(|| load_timeout(0)) // not stored: the client was answered already
     });

@@ -9,6 +9,7 @@ use super::alloc::release_free_heap;
 use super::scene_files::{Glb, SceneFile};
 use super::state::{AppState, GlbSource, Origin, SceneEntry, assemble};
 use super::store::SceneMeta;
+use crate::core::dynamic::marks;
 use crate::core::resident::ResidentScene;
 use crate::core::scene::{Scene, demo_city, load_glb_bytes_within, write_glb};
 
@@ -83,9 +84,15 @@ impl AppState {
             let why = format!("meta.json names id `{}`, not its folder's", meta.id);
             return Err(self.quarantine(id, &why));
         }
-        match load_glb_bytes_within(&glb, &meta.name, &self.config.load_limits()) {
+        let loaded = load_glb_bytes_within(&glb, &meta.name, &self.config.load_limits())
+            .map_err(|e| e.to_string())
+            .and_then(|mut scene| {
+                marks::mark(&mut scene, &meta.dynamic).map_err(|e| e.to_string())?;
+                Ok(scene)
+            });
+        match loaded {
             Ok(scene) => Ok(self.prepare(&meta, scene, glb.len() as u64)),
-            Err(e) => Err(self.quarantine(id, &e.to_string())),
+            Err(e) => Err(self.quarantine(id, &e)),
         }
     }
 
@@ -100,10 +107,12 @@ impl AppState {
     /// Makes a new upload (already parsed as `scene`) resident and stores it, if
     /// `may_store()` still says so once the scene is assembled (blocking). `None`: it
     /// was not stored (its client has been answered already).
+    /// `dynamic` are the patterns that marked objects of `scene` dynamic, kept with it.
     pub fn create(
         &self,
         name: &str,
         glb: &[u8],
+        dynamic: &[String],
         scene: Scene,
         may_store: impl FnOnce() -> bool,
     ) -> std::io::Result<Option<Arc<SceneEntry>>> {
@@ -113,7 +122,7 @@ impl AppState {
             return Ok(None);
         }
         let _changing = self.changes.lock().unwrap_or_else(|p| p.into_inner());
-        let meta = self.store.create(name, glb)?;
+        let meta = self.store.create(name, glb, dynamic)?;
         Ok(Some(self.commit(
             &meta,
             resident,

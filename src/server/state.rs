@@ -100,6 +100,7 @@ impl SceneEntry {
             objects: scene.objects.len() as u32,
             triangles: scene.triangle_count().min(u32::MAX as u64) as u32,
             occluders: resident.engine.prepared.occluders.ids.len() as u32,
+            dynamic_objects: scene.objects.iter().filter(|o| o.dynamic).count() as u32,
             bounds: [scene.bounds.min.to_array(), scene.bounds.max.to_array()],
             glb_bytes,
             warnings: scene.warnings.clone(),

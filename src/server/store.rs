@@ -32,6 +32,9 @@ pub struct SceneMeta {
     pub id: String,
     pub name: String,
     pub created_unix: u64,
+    /// The upload's `dynamic` patterns (`core::dynamic::marks`), applied at each load.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub dynamic: Vec<String>,
 }
 
 /// The cached output of occluder preprocessing, valid for the params it was built with.
@@ -166,12 +169,13 @@ impl Store {
     }
 
     /// Writes a new scene atomically and returns its metadata.
-    pub fn create(&self, name: &str, glb: &[u8]) -> std::io::Result<SceneMeta> {
+    pub fn create(&self, name: &str, glb: &[u8], dynamic: &[String]) -> std::io::Result<SceneMeta> {
         let id = format!("{:016x}", rand::random::<u64>());
         let meta = SceneMeta {
             id: id.clone(),
             name: name.to_string(),
             created_unix: unix_now(),
+            dynamic: dynamic.to_vec(),
         };
         let tmp = self.tmp_dir().join(format!("{id}.upload"));
         std::fs::create_dir_all(&tmp)?;
@@ -255,7 +259,7 @@ mod tests {
     fn create_list_read_delete() {
         let dir = tempfile::tempdir().unwrap();
         let store = Store::open(dir.path()).unwrap();
-        let meta = store.create("a scene", b"glTF-bytes").unwrap();
+        let meta = store.create("a scene", b"glTF-bytes", &[]).unwrap();
         assert!(valid_id(&meta.id));
         assert_eq!(store.list().unwrap(), vec![meta.id.clone()]);
         let (m, glb) = store.read(&meta.id).unwrap();
@@ -279,7 +283,7 @@ mod tests {
             "lock + upload"
         );
         let to = store
-            .quarantine(&store.create("b", b"x").unwrap().id)
+            .quarantine(&store.create("b", b"x", &[]).unwrap().id)
             .unwrap();
         assert!(to.join("scene.glb").is_file() && store.list().unwrap().is_empty());
     }

@@ -29,6 +29,7 @@
 //!   hide, at the version it was sent in, what the doorway shows a moment later.
 //!   Objects placed without a motion stay occluders at their placement.
 
+pub mod marks;
 mod placement;
 pub mod snapshot;
 

@@ -54,7 +54,11 @@ pub fn write_glb(scene: &Scene) -> Vec<u8> {
             // An object without triangles still needs a mesh to keep its ID.
             meshes.push(json!({"name": o.name, "primitives": []}));
         }
-        nodes.push(json!({"name": o.name, "mesh": mesh, "extras": {"homcull_id": o.id}}));
+        let mut extras = json!({"homcull_id": o.id});
+        if o.dynamic {
+            extras["homcull"] = json!({"dynamic": true});
+        }
+        nodes.push(json!({"name": o.name, "mesh": mesh, "extras": extras}));
     }
     let doc = json!({
         "asset": {"version": "2.0", "generator": "homcull"},

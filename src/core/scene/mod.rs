@@ -38,6 +38,15 @@ pub struct Object {
     pub index_count: u32,
     /// Raw JSON of the node's `extras`, if any (the OpenArena PVS data lives there).
     pub extras: Option<serde_json::Value>,
+    /// Marked as one that will move (`core::dynamic::marks`): by its extras
+    /// (`"homcull": {"dynamic": true}`) or by the upload.
+    pub dynamic: bool,
+}
+
+/// Whether a node's extras mark it dynamic: `"homcull": {"dynamic": true}` (a JSON
+/// `true`, nothing else).
+pub fn marked_by_extras(extras: Option<&serde_json::Value>) -> bool {
+    extras.and_then(|e| e.get("homcull")?.get("dynamic")?.as_bool()) == Some(true)
 }
 
 impl Object {
@@ -164,6 +173,7 @@ impl SceneBuilder {
             .extend(tri_indices[..whole].iter().map(|i| base + i));
         let index_count = whole as u32;
         let aabb = Aabb::from_points(tri_indices[..whole].iter().map(|&i| &vertices[i as usize]));
+        let dynamic = marked_by_extras(extras.as_ref());
         self.objects.push(Object {
             id,
             name,
@@ -171,6 +181,7 @@ impl SceneBuilder {
             first_index,
             index_count,
             extras,
+            dynamic,
         });
         id
     }

@@ -167,7 +167,10 @@ impl City {
             Vec3::new(x - cabin_long, 0.9, z - cabin_wide),
             Vec3::new(x + cabin_long, 1.5, z + cabin_wide),
         );
-        self.push(format!("car_{}", self.cars), &mesh);
+        // Cars drive (`homcull animate`): marked dynamic, as a file would mark them.
+        let extras = serde_json::json!({"homcull": {"dynamic": true}});
+        let name = format!("car_{}", self.cars);
+        (self.builder).push(name, &mesh.vertices, &mesh.indices, Some(extras));
         self.cars += 1;
     }
 
