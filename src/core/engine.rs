@@ -193,7 +193,9 @@ impl Engine {
         let Some(changes) = changes else { return };
         let t = std::time::Instant::now();
         let next = snapshot::advance(&self.base, &self.prepared, &changes);
-        let changed: Vec<u32> = changes.objects.iter().map(|&(id, _)| id).collect();
+        let changed: Vec<(u32, glam::Mat4)> = (changes.objects.iter())
+            .map(|(id, p)| (*id, p.map_or(glam::Mat4::IDENTITY, |p| p.matrix)))
+            .collect();
         self.backend.scene_changed(&next, &changed);
         self.prepared = Arc::new(next);
         self.version = changes.version;

@@ -101,11 +101,12 @@ pub trait Culler {
     }
 
     /// The scene moved (`core::dynamic`): `prep` is its new version, in which the
-    /// objects `changed` were placed anew (same objects, triangles and test-box count;
+    /// objects `changed` were placed anew, each by its matrix applied to its loaded
+    /// vertices (identity: back as loaded; same objects, triangles and test-box count;
     /// other positions and boxes, and possibly other moving objects). A backend that
-    /// keeps a copy of the geometry updates it here; culls started before keep the
+    /// keeps a copy of the scene updates it here; culls started before keep the
     /// version they started with.
-    fn scene_changed(&mut self, _prep: &PreparedScene, _changed: &[u32]) {}
+    fn scene_changed(&mut self, _prep: &PreparedScene, _changed: &[(u32, glam::Mat4)]) {}
 
     /// Culls a batch of cameras with the chosen method.
     fn cull(

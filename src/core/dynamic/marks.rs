@@ -8,7 +8,7 @@
 //!
 //! homcull itself keeps nothing a move would make stale. Each scene version is built
 //! from the loaded geometry (`snapshot::advance`), the object and occluder BVHs are
-//! refitted or rebuilt, the GPU's copies of moved vertices and boxes are rewritten,
+//! refitted or rebuilt, the GPU's placement matrices and test boxes are rewritten,
 //! and the stored occluder list (`occluders.json`, a qualification by size and
 //! triangle count) holds whatever rigid motion does to an object; a scaled object
 //! that no longer qualifies only costs culling, never correctness. So a mark changes

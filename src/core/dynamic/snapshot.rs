@@ -130,14 +130,19 @@ fn place(base: &Scene, scene: &mut Scene, id: u32, p: Option<&Placement>, horizo
     {
         *to = m.transform_point3(*from);
     }
+    // The bounds of the placed vertices, widened by the rounding `m * v` may have: the
+    // GPU applies `m` in its vertex stage, where it may round otherwise (a fused
+    // multiply-add), and its vertices must lie in the same bounds and boxes.
     let placed = {
         let o = &scene.objects[i];
-        Aabb::from_points(
+        let exact = Aabb::from_points(
             scene
                 .triangles_of(o)
                 .iter()
                 .map(|&v| &scene.positions[v as usize]),
-        )
+        );
+        let pad = rounding_pad(&m, loaded.aabb);
+        Aabb::new(exact.min - pad, exact.max + pad)
     };
     let t = p.sweep_s(horizon_s);
     for k in boxes {
@@ -150,20 +155,28 @@ fn place(base: &Scene, scene: &mut Scene, id: u32, p: Option<&Placement>, horizo
 }
 
 /// A box holding every point of `b` transformed by `m` in f32: the box of the
-/// transformed corners, widened by a bound on the rounding of `m * v` (a few ulps of
-/// the magnitudes summed), so that each vertex as the snapshot computes it is inside.
+/// transformed corners, widened by [`rounding_pad`], so that each vertex as the
+/// snapshot or the GPU's vertex stage computes it is inside.
 pub fn transformed_box(m: &Mat4, b: Aabb) -> Aabb {
     if b.is_empty() {
         return b;
     }
     let corners = b.corners().map(|c| m.transform_point3(c));
     let boxed = Aabb::from_points(corners.iter());
+    let pad = rounding_pad(m, b);
+    Aabb::new(boxed.min - pad, boxed.max + pad)
+}
+
+/// A bound, per axis, on how far `m * v` for a point `v` of `b` computed in f32 lies
+/// from the exact product, whatever the order of its sums and whether its products
+/// fuse (glam's `transform_point3` on the CPU, a WGSL `mat4x4 * vec4` on the GPU):
+/// each of its four terms and three sums rounds by at most half an ulp of the sum of
+/// magnitudes; eight ulps of it covers them with room.
+pub fn rounding_pad(m: &Mat4, b: Aabb) -> Vec3 {
     let reach = b.min.abs().max(b.max.abs());
     let rows = m.transpose();
     let size = |r: glam::Vec4| r.truncate().abs().dot(reach) + r.w.abs();
-    let pad =
-        Vec3::new(size(rows.x_axis), size(rows.y_axis), size(rows.z_axis)) * (8.0 * f32::EPSILON);
-    Aabb::new(boxed.min - pad, boxed.max + pad)
+    Vec3::new(size(rows.x_axis), size(rows.y_axis), size(rows.z_axis)) * (8.0 * f32::EPSILON)
 }
 
 fn intersection(a: Aabb, b: Aabb) -> Aabb {

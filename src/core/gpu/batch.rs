@@ -500,8 +500,13 @@ impl Culler for GpuBackend {
         }
     }
 
-    fn scene_changed(&mut self, prep: &PreparedScene, changed: &[u32]) {
-        self.scene.update(&self.ctx, &prep.scene, changed);
+    fn scene_changed(&mut self, prep: &PreparedScene, changed: &[(u32, glam::Mat4)]) {
+        let bytes = self.scene.update(&self.ctx, &prep.scene, changed);
+        tracing::debug!(
+            objects = changed.len(),
+            bytes,
+            "placements written to the GPU"
+        );
         self.moving = prep.moving.clone();
     }
 }

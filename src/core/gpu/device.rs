@@ -108,6 +108,15 @@ impl GpuDevice {
                 info.name, limits.max_storage_buffers_per_shader_stage
             )));
         }
+        // Placements are read in the vertex stage (`gpu/scene_buffers.rs`).
+        if !(adapter.get_downlevel_capabilities().flags)
+            .contains(wgpu::DownlevelFlags::VERTEX_STORAGE)
+        {
+            return Err(GpuError::NoAdapter(format!(
+                "adapter {} cannot read storage buffers in the vertex stage, which homcull needs",
+                info.name
+            )));
+        }
         let indirect_draws = adapter
             .features()
             .contains(wgpu::Features::INDIRECT_FIRST_INSTANCE)

@@ -105,11 +105,15 @@ impl BatchInputs {
             gpu.bind_group(
                 "pose",
                 &passes.raster.pose_layout,
-                vec![wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: poses.get(),
-                    offset: 0,
-                    size: wgpu::BufferSize::new(UNIFORM_SLOT),
-                })],
+                vec![
+                    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: poses.get(),
+                        offset: 0,
+                        size: wgpu::BufferSize::new(UNIFORM_SLOT),
+                    }),
+                    // The scene's buffers live as long as these inputs: one key is enough.
+                    scene.placements.as_entire_binding(),
+                ],
             )
         });
         let drawn = plans.iter().map(|p| {

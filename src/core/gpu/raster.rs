@@ -10,7 +10,7 @@
 
 use super::counted::Encoder;
 use super::device::GpuDevice;
-use super::encode::{UNIFORM_SLOT, uniform_entry};
+use super::encode::{UNIFORM_SLOT, storage_entry, uniform_entry};
 use super::scene_buffers::SceneBuffers;
 use super::targets::{DepthUse, SlotTargets};
 
@@ -55,7 +55,13 @@ impl RasterPass {
         let module = ctx.shader("raster", source);
         let pose_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("pose"),
-            entries: &[uniform_entry(0, true, wgpu::ShaderStages::VERTEX)],
+            entries: &[
+                uniform_entry(0, true, wgpu::ShaderStages::VERTEX),
+                wgpu::BindGroupLayoutEntry {
+                    visibility: wgpu::ShaderStages::VERTEX,
+                    ..storage_entry(1, true)
+                },
+            ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("raster"),

@@ -1,8 +1,18 @@
-//! A scene's geometry on the GPU: uploaded once, shared by every pass and pose; when
-//! objects move, their vertices and test boxes are written again in place.
+//! A scene's geometry on the GPU: uploaded once as loaded, shared by every pass and
+//! pose. Objects move by their placement matrices, which the vertex stage applies
+//! (`raster.wgsl`): a move writes one matrix per object (64 bytes, whatever its
+//! size) and its test boxes, never its vertices.
+//!
+//! The CPU backends place the vertices with the same f32 matrix (`dynamic::snapshot`);
+//! the GPU may round the product otherwise (a fused multiply-add), by less than the
+//! pad the snapshot widens every placed bound and test box with, so the boxes hold
+//! the GPU's vertices too. The GPU's HOM, its refinement and its oracle share the one
+//! vertex stage, so they agree on where every moved triangle is, as on static ones
+//! (an identity matrix leaves a vertex bit for bit as it was).
+
+use glam::Mat4;
 
 use super::device::GpuDevice;
-use crate::core::dynamic::snapshot::vertex_span;
 use crate::core::scene::{Scene, TestBox};
 
 /// One test box as the test kernel reads it (`TestBox` in `test.wgsl`).
@@ -15,9 +25,12 @@ pub struct GpuTestBox {
 }
 const _: () = assert!(std::mem::size_of::<GpuTestBox>() == 32);
 
-/// Vertex, index, object and test-box buffers of one scene.
+/// Vertex, index, object, placement and test-box buffers of one scene.
 pub struct SceneBuffers {
+    /// The vertices as loaded.
     pub vertices: wgpu::Buffer,
+    /// Each object's placement, column-major (`Placement::matrix`; identity as loaded).
+    pub placements: wgpu::Buffer,
     pub indices: wgpu::Buffer,
     pub boxes: wgpu::Buffer,
     /// `[first_index, index_count]` of every object, from which the refinement's
@@ -26,6 +39,7 @@ pub struct SceneBuffers {
 }
 
 impl SceneBuffers {
+    /// The buffers of `scene` as loaded (every placement the identity).
     pub fn new(gpu: &GpuDevice, scene: &Scene) -> Self {
         let init = |label, contents: &[u8], usage| gpu.buffer_init(label, contents, usage);
         let verts: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
@@ -45,11 +59,17 @@ impl SceneBuffers {
         if objects.is_empty() {
             objects.push([0, 0]);
         }
+        let placements = vec![Mat4::IDENTITY.to_cols_array(); scene.objects.len().max(1)];
         SceneBuffers {
             vertices: init(
                 "scene vertices",
                 bytemuck::cast_slice(&verts),
-                wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                wgpu::BufferUsages::VERTEX,
+            ),
+            placements: init(
+                "scene placements",
+                bytemuck::cast_slice(&placements),
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             ),
             indices: init(
                 "scene indices",
@@ -85,26 +105,23 @@ impl From<&TestBox> for GpuTestBox {
 }
 
 impl SceneBuffers {
-    /// Writes the vertices and test boxes of the objects `changed` from `scene` (the
-    /// same scene moved: same objects, index ranges and box counts). The writes reach
-    /// the GPU before the next submission and after every earlier one (the queue
-    /// orders them), so a batch in flight keeps the version it was recorded with.
-    pub fn update(&self, gpu: &GpuDevice, scene: &Scene, changed: &[u32]) {
-        const VERTEX: u64 = 12;
+    /// Writes the placement and test boxes of each object `changed` (its matrix, and
+    /// its boxes from `scene`, the same scene moved: same objects and box counts). The
+    /// writes reach the GPU before the next submission and after every earlier one
+    /// (the queue orders them), so a batch in flight keeps the version it was
+    /// recorded with. Answers the bytes written.
+    pub fn update(&self, gpu: &GpuDevice, scene: &Scene, changed: &[(u32, Mat4)]) -> u64 {
+        const MATRIX: u64 = 64;
         const BOX: u64 = std::mem::size_of::<GpuTestBox>() as u64;
-        for &id in changed {
-            let o = &scene.objects[id as usize];
-            if let Some((a, b)) = vertex_span(scene, o) {
-                let verts: Vec<[f32; 3]> = scene.positions[a..=b]
-                    .iter()
-                    .map(|p| p.to_array())
-                    .collect();
-                gpu.queue.write_buffer(
-                    &self.vertices,
-                    a as u64 * VERTEX,
-                    bytemuck::cast_slice(&verts),
-                );
-            }
+        let mut bytes = 0;
+        for &(id, m) in changed {
+            let cols = m.to_cols_array();
+            gpu.queue.write_buffer(
+                &self.placements,
+                id as u64 * MATRIX,
+                bytemuck::cast_slice(&cols),
+            );
+            bytes += MATRIX;
             let (lo, hi) = scene.box_ranges[id as usize];
             if hi > lo {
                 let boxes: Vec<GpuTestBox> = scene.boxes[lo as usize..hi as usize]
@@ -113,7 +130,9 @@ impl SceneBuffers {
                     .collect();
                 gpu.queue
                     .write_buffer(&self.boxes, lo as u64 * BOX, bytemuck::cast_slice(&boxes));
+                bytes += boxes.len() as u64 * BOX;
             }
         }
+        bytes
     }
 }

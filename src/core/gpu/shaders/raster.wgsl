@@ -3,6 +3,9 @@
 // CPU twin: `hom/raster.rs`.
 
 @group(0) @binding(0) var<uniform> pose: PoseUniform;
+// Each object's placement, applied to its vertices as loaded (identity until it moves:
+// `gpu/scene_buffers.rs`). The instance index is the object's ID in every draw.
+@group(0) @binding(1) var<storage, read> placements: array<mat4x4<f32>>;
 
 struct VsOut {
     @invariant @builtin(position) clip: vec4<f32>,
@@ -14,7 +17,7 @@ struct VsOut {
 @vertex
 fn vs(@location(0) p: vec3<f32>, @builtin(instance_index) id: u32) -> VsOut {
     var out: VsOut;
-    out.clip = pose.view_proj * vec4<f32>(p, 1.0);
+    out.clip = pose.view_proj * (placements[id] * vec4<f32>(p, 1.0));
     out.depth = out.clip.w;
     out.id = id;
     return out;
