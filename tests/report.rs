@@ -216,6 +216,11 @@ fn quick_report_writes_markdown_and_plots() {
         .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
         .collect();
     assert!(rows.iter().any(|r| r[2] == "static") && rows.iter().any(|r| r[2] == "400 ms"));
+    // The occluder rule priced alone.
+    assert!(
+        rows.iter().any(|r| r[2] == "static, movers not occluding"),
+        "{rows:?}"
+    );
     for r in &rows {
         assert_eq!(r[4], "0", "false culls with motion: {r:?}");
         assert_ne!(r[1], "0", "movers: {r:?}");

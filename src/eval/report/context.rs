@@ -114,6 +114,16 @@ impl Report {
         ResidentScene::assemble(scene, Residency::evaluation(params), backend).engine
     }
 
+    /// [`Report::engine`] whose occluders are `ids` (a subset of what it would choose).
+    pub(super) fn engine_occluding(&self, scene: Scene, budget: u32, ids: Vec<u32>) -> Engine {
+        let mut how = Residency::evaluation(OccluderParams {
+            budget_triangles: budget,
+            ..Default::default()
+        });
+        how.cached_occluders = Some(ids);
+        ResidentScene::assemble(scene, how, self.backend.clone()).engine
+    }
+
     pub(super) fn save(&self) -> Result<()> {
         let path = self.out.join("report.md");
         std::fs::write(&path, &self.md).with_context(|| format!("writing {}", path.display()))
