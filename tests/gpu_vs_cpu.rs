@@ -66,19 +66,35 @@ fn raster_pyramid_and_test_match_cpu() {
             "pose {k}: {mismatched} of {n0} pixels differ in coverage"
         );
         // Where both cover a pixel the nearest depth agrees, except where an edge pixel
-        // went to a different triangle.
+        // went to a different triangle: the GPU's lies behind the exact depth by at most
+        // its slack (`DEPTH_SLACK_PX` of the depth's gradient, estimated from the CPU's
+        // neighbouring pixels), never in front.
         let both: Vec<usize> = (0..n0).filter(|&i| cpu0[i] > 0.0 && go[i] > 0.0).collect();
-        let off = both
-            .iter()
-            .filter(|&&i| (cpu0[i] - gd[i]).abs() > 1e-3 * cpu0[i])
+        let gradient = |i: usize| {
+            let step = |j: Option<usize>| {
+                j.filter(|&j| j < n0 && cpu0[j] > 0.0)
+                    .map_or(0.0, |j| (cpu0[j] - cpu0[i]).abs())
+            };
+            let w = w as usize;
+            step(i.checked_sub(1)).max(step(Some(i + 1)))
+                + step(i.checked_sub(w)).max(step(Some(i + w)))
+        };
+        let slack = homcull::core::gpu::prelude::DEPTH_SLACK_PX;
+        let nearer = (both.iter())
+            .filter(|&&i| gd[i] < cpu0[i] * (1.0 - 1e-3))
+            .count();
+        // Farther than the slack the CPU's neighbours suggest: a face seen edge-on, a
+        // pixel wide, whose own gradient (what the GPU uses) is far steeper.
+        let farther = (both.iter())
+            .filter(|&&i| gd[i] > cpu0[i] * (1.0 + 1e-3) + 2.0 * slack * gradient(i))
             .count();
         assert!(
             both.len() > n0 / 10,
             "pose {k}: too little coverage to compare"
         );
         assert!(
-            off * 200 < both.len(),
-            "pose {k}: {off} of {} covered pixels differ in depth",
+            nearer * 200 < both.len() && farther * 100 < both.len(),
+            "pose {k}: of {} covered pixels, {nearer} nearer on the GPU, {farther} farther than its slack",
             both.len()
         );
         // Pyramid: CPU reduction of the GPU's level 0 must equal the GPU's levels exactly.

@@ -19,6 +19,23 @@ pub const NO_OBJECT: u32 = u32::MAX;
 /// judges (object IDs stay below it: scenes are bounded far lower).
 pub const MOVING_OBJECT: u32 = 1 << 31;
 
+/// How far, in pixels of its own screen-space gradient, a fragment's interpolated view
+/// depth may stray from the exact depth of its surface at the pixel centre. The GPU
+/// rasterizes from vertices snapped to its sub-pixel grid and may interpolate a
+/// varying elsewhere in the pixel than its centre; on a face seen nearly edge-on
+/// (depth changing by metres per pixel) that moves the depth by far more than the
+/// relative `DEPTH_MARGIN` (measured on lavapipe: 0.17 m at 485 m, 3.5e-4, on the side
+/// of a building of the demo city, which then hid itself: 0.001 px of its gradient,
+/// where vertices snap by up to 1/32 px on the coarsest sub-pixel grid Vulkan allows
+/// (4 bits; lavapipe and NVIDIA use 8), which moves a point's depth by a step or two of
+/// the gradient; 1/16 px covers that, and costs a facing surface at 45° ~4e-4 of its
+/// depth at 320×180, 1.3e-4 at 960×540). So the occlusion map keeps
+/// each fragment's depth pushed back by this many pixels of its gradient, and the
+/// refinement's direct comparison pulls an object's fragment forward by as much: both
+/// only ever err towards "visible". Facing surfaces, whose gradient is tiny, lose
+/// nothing measurable.
+pub const DEPTH_SLACK_PX: f32 = 0.0625;
+
 /// The box test's method code (`TestConfig::method`).
 pub fn method_code(method: Method) -> u32 {
     match method {
@@ -43,6 +60,7 @@ pub fn wgsl() -> String {
         "// Generated from the Rust constants (gpu/prelude.rs).\n\
          const RECT_EPSILON_PX: f32 = {RECT_EPSILON_PX:?};\n\
          const DEPTH_MARGIN: f32 = {DEPTH_MARGIN:?};\n\
+         const DEPTH_SLACK_PX: f32 = {DEPTH_SLACK_PX:?};\n\
          const MAX_LEVELS: u32 = {MAX_LEVELS}u;\n\
          const METHOD_HOM: u32 = {}u;\n\
          const METHOD_HZB: u32 = {}u;\n\
@@ -79,6 +97,7 @@ mod tests {
         };
         assert_eq!(value("RECT_EPSILON_PX"), RECT_EPSILON_PX);
         assert_eq!(value("DEPTH_MARGIN"), DEPTH_MARGIN);
+        assert_eq!(value("DEPTH_SLACK_PX"), DEPTH_SLACK_PX);
     }
 
     #[test]

@@ -23,9 +23,17 @@ fn vs(@location(0) p: vec3<f32>, @builtin(instance_index) id: u32) -> VsOut {
     return out;
 }
 
+// How far the interpolated depth may stray from its surface's at the pixel centre
+// (`DEPTH_SLACK_PX` pixels of its gradient, `gpu/prelude.rs`).
+fn depth_slack(depth: f32) -> f32 {
+    return DEPTH_SLACK_PX * (abs(dpdxFine(depth)) + abs(dpdyFine(depth)));
+}
+
+// The occlusion map: each fragment's depth pushed back by its slack (never nearer than
+// its surface, so it never hides what lies just behind it).
 @fragment
 fn fs_depth(in: VsOut) -> @location(0) f32 {
-    return in.depth;
+    return in.depth + depth_slack(in.depth);
 }
 
 @fragment
@@ -69,8 +77,10 @@ fn mark_visible(id: u32) {
 
 @fragment
 fn fs_refine(in: VsOut) {
+    // The map is pushed back by its slack; the fragment comes forward by its own.
+    let nearest = in.depth - depth_slack(in.depth);
     let occ = textureLoad(occlusion, vec2<u32>(in.clip.xy), 0).r;
-    if occ > 0.0 && in_front(occ, in.depth) {
+    if occ > 0.0 && in_front(occ, nearest) {
         return;
     }
     mark_visible(in.id);
