@@ -117,7 +117,7 @@ mod tests {
             .filter_map(|l| l.strip_prefix("const "))
             .map(|l| l.split(':').next().unwrap())
             .collect();
-        assert_eq!(shared.len(), 12);
+        assert_eq!(shared.len(), 13);
         for k in kernels {
             for name in &shared {
                 assert!(!k.contains(&format!("const {name}")), "{name} is generated");
