@@ -90,14 +90,17 @@ pub(super) fn section(r: &mut Report, scenes: &[Loaded]) -> Result<()> {
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())
                 .apply(&req, usize::MAX)?;
-            let e = evaluate(
-                &mut engine,
-                &cams,
-                std::slice::from_ref(&refined),
-                p.batch,
-                None,
-                false,
-            )?;
+            let refine = |engine: &mut crate::core::engine::Engine| {
+                evaluate(
+                    engine,
+                    &cams,
+                    std::slice::from_ref(&refined),
+                    p.batch,
+                    None,
+                    false,
+                )
+            };
+            let e = refine(&mut engine)?;
             row(r, &e, moves.len(), &label);
             if h.is_none() {
                 let kept = static_ids
@@ -105,15 +108,8 @@ pub(super) fn section(r: &mut Report, scenes: &[Loaded]) -> Result<()> {
                     .copied()
                     .filter(|id| !moves.iter().any(|m| m.id == *id));
                 let mut still = r.engine_occluding(l.scene.clone(), 100_000, kept.collect());
-                let e = evaluate(
-                    &mut still,
-                    &cams,
-                    std::slice::from_ref(&refined),
-                    p.batch,
-                    None,
-                    false,
-                )?;
-                row(r, &e, moves.len(), "static, movers not occluding");
+                let alone = refine(&mut still)?;
+                row(r, &alone, moves.len(), "static, movers not occluding");
             }
             if h != Some(1.0) {
                 points.push((h.unwrap_or(0.0), e.methods["hom-refine"].efficiency));
