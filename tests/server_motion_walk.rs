@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::server::{TestServer, post_json, street_walk};
+use common::server::{TestServer, get_json, post_json, street_walk};
 use futures_util::{SinkExt, StreamExt};
 use homcull::core::engine::Backend;
 use homcull_proto::BatchResponse;
@@ -27,14 +27,7 @@ async fn walk(backend: Backend, name: &str) {
     })
     .await;
     let http = reqwest::Client::new();
-    let objects: Value = http
-        .get(srv.url("/v1/scenes/demo/objects"))
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let objects: Value = get_json(&http, srv.url("/v1/scenes/demo/objects")).await;
     let cars: Vec<u64> = objects["objects"]
         .as_array()
         .unwrap()
@@ -44,19 +37,7 @@ async fn walk(backend: Backend, name: &str) {
         .collect();
     assert!(cars.len() > 100, "{name}: the demo's cars are marked");
     // A writer stream: the write token on its upgrade.
-    let (mut writer, _) = tokio_tungstenite::connect_async(
-        tokio_tungstenite::tungstenite::client::IntoClientRequest::into_client_request(
-            srv.ws_url("/v1/scenes/demo/stream"),
-        )
-        .map(|mut r| {
-            r.headers_mut()
-                .insert("authorization", "Bearer secret".parse().unwrap());
-            r
-        })
-        .unwrap(),
-    )
-    .await
-    .expect("a writer stream");
+    let mut writer = common::ws::open(&srv, Some("secret")).await;
     let _hello = writer.next().await;
     let poses = street_walk(POSES, [320, 180]);
     let mut rng = StdRng::seed_from_u64(19);

@@ -104,18 +104,6 @@ async fn streams_that_ask_are_told_where_moved_objects_are() {
     srv.stop().await;
 }
 
-/// The demo's stream, its upgrade request carrying `token` as a bearer token if given.
-async fn open(srv: &TestServer, token: Option<&str>) -> common::ws::Ws {
-    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
-    let url = srv.ws_url("/v1/scenes/demo/stream");
-    let mut req = url.as_str().into_client_request().unwrap();
-    if let Some(t) = token {
-        req.headers_mut()
-            .insert("authorization", format!("Bearer {t}").parse().unwrap());
-    }
-    tokio_tungstenite::connect_async(req).await.unwrap().0
-}
-
 /// Writers on a stream: updates as text messages, answered with the version or the
 /// REST error code; when the server has a token, only a stream upgraded with it may
 /// write, and the poses of the same stream are still answered.
@@ -137,7 +125,7 @@ async fn a_stream_may_move_objects() {
         }
     };
     // Without the token: refused, nothing applied.
-    let mut anon = open(&srv, None).await;
+    let mut anon = common::ws::open(&srv, None).await;
     let moving = json!({"objects": [{"id": 3, "translation": [0, 1, 0]}]});
     anon.send(update(1, moving.clone())).await.unwrap();
     let r = reply(&mut anon).await;
@@ -147,7 +135,7 @@ async fn a_stream_may_move_objects() {
     );
     // With it: applied, versions follow; a bad update gets its REST code; a malformed
     // message its own; poses on the same stream are still answered.
-    let mut ws = open(&srv, Some("s3cret")).await;
+    let mut ws = common::ws::open(&srv, Some("s3cret")).await;
     ws.send(update(5, moving)).await.unwrap();
     let r = reply(&mut ws).await;
     assert_eq!(
@@ -214,14 +202,14 @@ async fn binary_transforms_frames_are_applied_and_answered() {
             Ok(v) => panic!("unexpected text {v}"),
         }
     };
-    let mut anon = open(&srv, None).await;
+    let mut anon = common::ws::open(&srv, None).await;
     anon.send(up(1, &[3])).await.unwrap();
     let Frame::Error(e) = next_frame(&mut anon).await else {
         panic!("an error frame")
     };
     assert_eq!((e.code, e.ack), (ErrorCode::Unauthorized, 1));
 
-    let mut ws = open(&srv, Some("s3cret")).await;
+    let mut ws = common::ws::open(&srv, Some("s3cret")).await;
     ws.send(up(21, &[3, 4, 9])).await.unwrap();
     let Frame::Applied(a) = next_frame(&mut ws).await else {
         panic!("an applied frame")

@@ -14,6 +14,19 @@ use super::server::{TestServer, post_json};
 pub type Ws =
     tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
 
+/// The demo's stream, its upgrade request carrying `token` as a bearer token if given
+/// (the hello frame left unread).
+pub async fn open(srv: &TestServer, token: Option<&str>) -> Ws {
+    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+    let url = srv.ws_url("/v1/scenes/demo/stream");
+    let mut req = url.as_str().into_client_request().unwrap();
+    if let Some(t) = token {
+        req.headers_mut()
+            .insert("authorization", format!("Bearer {t}").parse().unwrap());
+    }
+    tokio_tungstenite::connect_async(req).await.unwrap().0
+}
+
 pub async fn connect(srv: &TestServer, query: &str) -> Ws {
     connect_hello(srv, query).await.0
 }

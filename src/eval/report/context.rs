@@ -107,19 +107,12 @@ impl Report {
 
     /// [`Report::engine`] on another backend (the native CPU one beside a GPU).
     pub(super) fn engine_on(&self, scene: Scene, budget: u32, backend: Backend) -> Engine {
-        let params = OccluderParams {
-            budget_triangles: budget,
-            ..Default::default()
-        };
-        ResidentScene::assemble(scene, Residency::evaluation(params), backend).engine
+        ResidentScene::assemble(scene, residency(budget), backend).engine
     }
 
     /// [`Report::engine`] whose occluders are `ids` (a subset of what it would choose).
     pub(super) fn engine_occluding(&self, scene: Scene, budget: u32, ids: Vec<u32>) -> Engine {
-        let mut how = Residency::evaluation(OccluderParams {
-            budget_triangles: budget,
-            ..Default::default()
-        });
+        let mut how = residency(budget);
         how.cached_occluders = Some(ids);
         ResidentScene::assemble(scene, how, self.backend.clone()).engine
     }
@@ -206,4 +199,12 @@ pub(super) fn over(m: &MethodReport) -> f64 {
     } else {
         1.0
     }
+}
+
+/// How the report's engines hold a scene: for evaluation, `budget` occluder triangles.
+fn residency(budget: u32) -> Residency {
+    Residency::evaluation(OccluderParams {
+        budget_triangles: budget,
+        ..Default::default()
+    })
 }

@@ -170,7 +170,8 @@ impl City {
         // Cars drive (`homcull animate`): marked dynamic, as a file would mark them.
         let extras = serde_json::json!({"homcull": {"dynamic": true}});
         let name = format!("car_{}", self.cars);
-        (self.builder).push(name, &mesh.vertices, &mesh.indices, Some(extras));
+        self.builder
+            .push(name, &mesh.vertices, &mesh.indices, Some(extras));
         self.cars += 1;
     }
 
