@@ -13,6 +13,9 @@
 //!   refinement, the answer), what a client waits for, beside `exact` (the ID-buffer
 //!   oracle on the same spans) and `stereo` (both eyes of the pose, 64 mm apart, in
 //!   one cull: one occluder choice, a map and tests per eye).
+//! - `masked_draw`, `pose_masked_unplanned` beside `pose_per_pixel_unplanned`: the
+//!   masked map (`native::masked`, `MaskedBackend`) against the per-pixel map, the
+//!   whole pose after planning.
 
 use std::sync::OnceLock;
 
@@ -21,6 +24,7 @@ use homcull::core::camera::{Camera, stereo};
 use homcull::core::cull::{CullSettings, Culler, PosePlan, PreparedScene, plan};
 use homcull::core::native::NativeBackend;
 use homcull::core::native::map::OcclusionMap;
+use homcull::core::native::masked::MaskedMap;
 use homcull::core::occluders::OccluderParams;
 use homcull::core::sampler::PoseSampler;
 use homcull::core::scene::load_path;
@@ -158,6 +162,54 @@ fn box_test_per_box(bencher: Bencher, name: &str) {
 #[divan::bench(args = SCENES)]
 fn pose_hom_refined(bencher: Bencher, name: &str) {
     whole_pose(bencher, name, Method::Hom);
+}
+
+/// The whole pose on the per-pixel map (`NativeBackend`, the served path), planned
+/// outside the timing, beside `pose_masked_unplanned`.
+#[divan::bench(args = SCENES)]
+fn pose_per_pixel_unplanned(bencher: Bencher, name: &str) {
+    let b = scene(name);
+    let plans = plans(b, Method::Hom);
+    let s = settings(b, Method::Hom);
+    bencher
+        .counter(divan::counter::ItemsCount::new(plans.len()))
+        .bench_local(|| {
+            plans
+                .iter()
+                .map(|p| NativeBackend::pose_mask(&b.prep, p, &s)[0])
+                .sum::<u32>()
+        });
+}
+
+/// The whole pose on the masked map (`MaskedBackend`), planned outside the timing.
+#[divan::bench(args = SCENES)]
+fn pose_masked_unplanned(bencher: Bencher, name: &str) {
+    let b = scene(name);
+    let plans = plans(b, Method::Hom);
+    let s = settings(b, Method::Hom);
+    bencher
+        .counter(divan::counter::ItemsCount::new(plans.len()))
+        .bench_local(|| {
+            plans
+                .iter()
+                .map(|p| NativeBackend::pose_mask_masked(&b.prep, p, &s)[0])
+                .sum::<u32>()
+        });
+}
+
+#[divan::bench(args = SCENES)]
+fn masked_draw_per_pose(bencher: Bencher, name: &str) {
+    let b = scene(name);
+    let plans = plans(b, Method::Hom);
+    let mut map = MaskedMap::default();
+    bencher
+        .counter(divan::counter::ItemsCount::new(plans.len()))
+        .bench_local(|| {
+            for p in &plans {
+                map.reset(p.cam.width, p.cam.height);
+                map.draw_occluders(&b.prep.scene, &p.cam, &p.occluders.ids);
+            }
+        });
 }
 
 #[divan::bench(args = SCENES)]

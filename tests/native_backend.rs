@@ -2,10 +2,11 @@
 //!
 //! - Random scenes (property test): zero false culls against the CPU oracle twin
 //!   (`hom::oracle`, the reference's exact-arithmetic ID buffer), for the refined
-//!   test and the box test alone with each DEB; the backend's own `exact` equals the
+//!   test and the box test alone with each DEB, on both maps; the backend's own `exact` equals the
 //!   twin's.
-//! - Every shared scene and the demo city, sampled street-level poses at 960×540:
-//!   zero false culls against the CPU twin; against the GPU oracle where an adapter
+//! - Every shared scene and the demo city, sampled street-level poses at 960×540,
+//!   for both maps (the per-pixel map and the masked map, `MaskedBackend`): zero
+//!   false culls against the CPU twin; against the GPU oracle where an adapter
 //!   exists, every object the GPU sees and this backend culls must be one the CPU
 //!   twin does not see either (a crack: the GPU snaps vertices to a fixed-point grid
 //!   and can leave a pixel uncovered between nearer triangles, see `real_scenes.rs`),
@@ -21,8 +22,8 @@ use homcull::core::cull::{Culler, PosePlan, PreparedScene, has_bit, plan, words_
 use homcull::core::geom::Aabb;
 use homcull::core::gpu::GpuBackend;
 use homcull::core::hom::ReferenceBackend;
-use homcull::core::native::NativeBackend;
 use homcull::core::native::map::{OcclusionMap, front_facing};
+use homcull::core::native::{MaskedBackend, NativeBackend};
 use homcull::core::occluders::OccluderParams;
 use homcull::core::pvs::Pvs;
 use homcull::core::sampler::PoseSampler;
@@ -78,6 +79,9 @@ proptest! {
             let mask = NativeBackend.visibility(&prep, &plans, &s).unwrap();
             let wrong = false_culls(&plans, &mask, &oracle);
             prop_assert!(wrong.is_empty(), "{:?} refine {}: culled {:?}", deb, refine, wrong);
+            let masked = MaskedBackend.visibility(&prep, &plans, &s).unwrap();
+            let wrong = false_culls(&plans, &masked, &oracle);
+            prop_assert!(wrong.is_empty(), "masked map, {:?} refine {}: culled {:?}", deb, refine, wrong);
             if deb == DebVariant::Raster && !refine && !inside_a_box {
                 // The native box test is the reference's conservative test answered
                 // exactly: the same answer, object for object. (From inside a box the
@@ -146,10 +150,50 @@ fn check(scene: Scene) {
     let exact = settings(&prep, Method::Exact, DebVariant::Raster, false);
     let oracle = ReferenceBackend.visibility(&prep, &plans, &exact).unwrap();
     let native = NativeBackend.visibility(&prep, &plans, &hom).unwrap();
-    let wrong = false_culls(&plans, &native, &oracle);
+    let masked = MaskedBackend.visibility(&prep, &plans, &hom).unwrap();
+    for (map, mask) in [("per-pixel", &native), ("masked", &masked)] {
+        quality(&name, map, &prep, &plans, mask, &oracle);
+    }
+
+    // Against the GPU oracle: only cracks.
+    let scene = &prep.scene;
+    let Some(gpu) = common::gpu() else { return };
+    let gpu_oracle = GpuBackend::new(gpu, &prep)
+        .visibility(&prep, &plans, &exact)
+        .unwrap();
+    assert_eq!(gpu_oracle[0].len(), words_per_pose(scene.objects.len()));
+    for (map, mask) in [("per-pixel", &native), ("masked", &masked)] {
+        let gpu_only = false_culls(&plans, mask, &gpu_oracle);
+        for &(k, c) in &gpu_only {
+            assert!(
+                !has_bit(&oracle[k], c),
+                "{name} ({map} map): pose {k} object {c}: the CPU oracle sees it too"
+            );
+        }
+        eprintln!(
+            "{name} ({map} map): {} objects only the GPU oracle sees (through cracks), culled",
+            gpu_only.len()
+        );
+        assert!(
+            gpu_only.len() * 4 <= POSES,
+            "{name} ({map} map): {} GPU-only sightings in {POSES} poses",
+            gpu_only.len()
+        );
+    }
+}
+
+fn quality(
+    name: &str,
+    map: &str,
+    prep: &PreparedScene,
+    plans: &[PosePlan],
+    native: &[Vec<u32>],
+    oracle: &[Vec<u32>],
+) {
+    let wrong = false_culls(plans, native, oracle);
     assert!(
         wrong.is_empty(),
-        "{name}: culled objects the CPU oracle sees: {wrong:?}"
+        "{name} ({map} map): culled objects the CPU oracle sees: {wrong:?}"
     );
 
     // Efficiency and over-draw against the CPU oracle.
@@ -168,38 +212,17 @@ fn check(scene: Scene) {
     }
     let efficiency = culled as f64 / hidden.max(1) as f64;
     let overdraw = kept_tris as f64 / oracle_tris.max(1) as f64;
-    eprintln!("{name}: refined efficiency {efficiency:.4}, kept/oracle triangles {overdraw:.4}");
-    assert!(
-        efficiency >= floor(&name),
-        "{name}: refined efficiency {efficiency:.4} below {}",
-        floor(&name)
-    );
-    assert!(
-        overdraw <= max_overdraw(&name),
-        "{name}: kept/oracle triangles {overdraw:.4}"
-    );
-
-    // Against the GPU oracle: only cracks.
-    let Some(gpu) = common::gpu() else { return };
-    let gpu_oracle = GpuBackend::new(gpu, &prep)
-        .visibility(&prep, &plans, &exact)
-        .unwrap();
-    assert_eq!(gpu_oracle[0].len(), words_per_pose(scene.objects.len()));
-    let gpu_only = false_culls(&plans, &native, &gpu_oracle);
-    for &(k, c) in &gpu_only {
-        assert!(
-            !has_bit(&oracle[k], c),
-            "{name}: pose {k} object {c}: the CPU oracle sees it too"
-        );
-    }
     eprintln!(
-        "{name}: {} objects only the GPU oracle sees (through cracks), culled",
-        gpu_only.len()
+        "{name} ({map} map): refined efficiency {efficiency:.4}, kept/oracle triangles {overdraw:.4}"
     );
     assert!(
-        gpu_only.len() * 4 <= POSES,
-        "{name}: {} GPU-only sightings in {POSES} poses",
-        gpu_only.len()
+        efficiency >= floor(name),
+        "{name} ({map} map): refined efficiency {efficiency:.4} below {}",
+        floor(name)
+    );
+    assert!(
+        overdraw <= max_overdraw(name),
+        "{name} ({map} map): kept/oracle triangles {overdraw:.4}"
     );
 }
 

@@ -43,6 +43,7 @@
 //! test oracle of every pass here.
 
 pub mod map;
+pub mod masked;
 pub mod refine;
 pub mod span;
 
@@ -57,12 +58,14 @@ use crate::core::cull::{
 };
 use crate::core::hom::{ReferenceBackend, pyramid};
 use map::OcclusionMap;
+use masked::MaskedMap;
 use refine::IdBuffer;
 
 /// Per-thread buffers, kept from pose to pose (a 960×540 map is 2 MB).
 #[derive(Default)]
 struct Scratch {
     map: OcclusionMap,
+    masked: MaskedMap,
     ids: IdBuffer,
 }
 
@@ -112,6 +115,50 @@ impl NativeBackend {
             Method::Exact => refine::exact(&mut sc.ids, &prep.scene, &p.cam, &p.candidates),
             _ => Self::hom(&mut sc.map, prep, p, s, split),
         })
+    }
+
+    /// [`NativeBackend::pose_mask`] on the masked map ([`masked`]) where it answers the
+    /// settings (the conservative test: threshold 1, raster DEB), else on the per-pixel
+    /// map.
+    pub fn pose_mask_masked(prep: &PreparedScene, p: &PosePlan, s: &CullSettings) -> Vec<u32> {
+        if !Self::masked_answers(s) {
+            return Self::pose_mask(prep, p, s);
+        }
+        SCRATCH.with_borrow_mut(|sc| Self::hom_masked(&mut sc.masked, prep, p, s))
+    }
+
+    /// Whether the masked map answers these settings: the conservative test (threshold
+    /// 1, raster DEB) of `hom`. The approximate thresholds, `hzb`, the box DEBs and
+    /// `exact` read the per-pixel map.
+    fn masked_answers(s: &CullSettings) -> bool {
+        s.options.method == Method::Hom
+            && s.options.threshold >= 1.0
+            && s.options.deb == DebVariant::Raster
+    }
+
+    /// HOM on the masked map: draw, box test, refinement of the survivors.
+    fn hom_masked(
+        map: &mut MaskedMap,
+        prep: &PreparedScene,
+        p: &PosePlan,
+        s: &CullSettings,
+    ) -> Vec<u32> {
+        let scene = &prep.scene;
+        map.reset(p.cam.width, p.cam.height);
+        map.draw_occluders(scene, &p.cam, &p.occluders.ids);
+        let mut mask = masked_box_test(map, prep, p);
+        if s.refines() {
+            for &c in &p.candidates {
+                // A moving object's boxes bound its motion; its triangles do not.
+                if has_bit(&mask, c)
+                    && !prep.is_moving(c)
+                    && refine::hidden_masked(map, scene, &p.cam, c)
+                {
+                    clear_bit(&mut mask, c);
+                }
+            }
+        }
+        mask
     }
 
     fn hom(
@@ -186,6 +233,14 @@ fn box_test(map: &OcclusionMap, prep: &PreparedScene, p: &PosePlan, raster: bool
     })
 }
 
+/// The box test on the masked map (threshold 1, raster DEB), compiled per SIMD level.
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn masked_box_test(map: &MaskedMap, prep: &PreparedScene, p: &PosePlan) -> Vec<u32> {
+    p.box_test(&prep.scene, |r| {
+        map.rect_hidden(r, (1.0 + DEPTH_MARGIN) / r.near)
+    })
+}
+
 impl Culler for NativeBackend {
     fn describe(&self) -> String {
         format!(
@@ -209,6 +264,38 @@ impl Culler for NativeBackend {
                 let large = p.cam.width as u64 * p.cam.height as u64 >= SPLIT_MIN_PIXELS;
                 Self::pose_mask_split(prep, p, s, spare && large)
             })
+            .collect())
+    }
+}
+
+/// The native backend on the masked map ([`masked`]: coverage bitmasks and two depth
+/// bounds per 32×8 tile, per-pixel depth only in the tiles the refinement reads) for
+/// the conservative test, the per-pixel map for every other setting. Not the served
+/// path: on the shared scenes it answers exactly as [`NativeBackend`] after the
+/// refinement, but its box test alone is weaker (a tile's bound is the least of a
+/// plane over 256 pixels), and the refinement of the extra survivors costs what the
+/// cheaper draw saves (`cargo bench --bench native -- pose_`).
+#[derive(Default)]
+pub struct MaskedBackend;
+
+impl Culler for MaskedBackend {
+    fn describe(&self) -> String {
+        format!(
+            "native CPU, masked map ({}, {} threads)",
+            simd_level(),
+            rayon::current_num_threads()
+        )
+    }
+
+    fn visibility(
+        &mut self,
+        prep: &PreparedScene,
+        plans: &[PosePlan],
+        s: &CullSettings,
+    ) -> Result<Vec<Vec<u32>>, CullError> {
+        Ok(plans
+            .par_iter()
+            .map(|p| NativeBackend::pose_mask_masked(prep, p, s))
             .collect())
     }
 }

@@ -14,6 +14,7 @@
 //! keeps a tie, or a difference in the last bits, from ever culling.
 
 use super::map::OcclusionMap;
+use super::masked::MaskedMap;
 use super::span::{LANES, Span, padded_len, span_triangles};
 use crate::core::camera::Camera;
 use crate::core::cull::{empty_mask, set_bit};
@@ -47,6 +48,21 @@ pub fn hidden_per_pixel(map: &OcclusionMap, scene: &Scene, cam: &Camera, id: u32
                 let at = y as usize * w + s.x0 as usize;
                 span_hidden(&map.pixels_with_padding()[at..at + s.lanes_len()], &s)
             })
+        })
+    })
+}
+
+/// [`hidden_per_pixel`] on the masked map: a triangle the tiles' bounds show hidden
+/// whole needs no more, else its tiles are settled one by one from their bounds and,
+/// where those leave it in doubt, from the tile's exact depth
+/// ([`MaskedMap::triangle_hidden_per_pixel`]).
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+pub fn hidden_masked(map: &mut MaskedMap, scene: &Scene, cam: &Camera, id: u32) -> bool {
+    let o = &scene.objects[id as usize];
+    let margin = REFINE_MARGIN as f64;
+    scene.corners_of(o).all(|tri| {
+        span_triangles(cam, tri, |t| {
+            map.triangle_hidden(t, margin) || map.triangle_hidden_per_pixel(t, margin)
         })
     })
 }
