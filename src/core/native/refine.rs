@@ -13,7 +13,7 @@
 //! from one rasterizer's arithmetic but not from the oracle's, and the margin is what
 //! keeps a tie, or a difference in the last bits, from ever culling.
 
-use super::map::OcclusionMap;
+use super::map::{OcclusionMap, front_facing};
 use super::masked::MaskedMap;
 use super::span::{LANES, Span, padded_len, span_triangles};
 use crate::core::camera::Camera;
@@ -60,10 +60,18 @@ pub fn hidden_per_pixel(map: &OcclusionMap, scene: &Scene, cam: &Camera, id: u32
 pub fn hidden_masked(map: &mut MaskedMap, scene: &Scene, cam: &Camera, id: u32) -> bool {
     let o = &scene.objects[id as usize];
     let margin = REFINE_MARGIN as f64;
-    scene.corners_of(o).all(|tri| {
-        span_triangles(cam, tri, |t| {
-            map.triangle_hidden(t, margin) || map.triangle_hidden_per_pixel(t, margin)
-        })
+    // Front faces first: where an object shows, a front face usually does, and a back
+    // face behind its own front faces is proven hidden only per pixel. Every triangle
+    // is still tested before the object is called hidden.
+    [true, false].into_iter().all(|front| {
+        scene
+            .corners_of(o)
+            .filter(|tri| front_facing(cam.position, tri) == front)
+            .all(|tri| {
+                span_triangles(cam, tri, |t| {
+                    map.triangle_hidden(t, margin) || map.triangle_hidden_per_pixel(t, margin)
+                })
+            })
     })
 }
 

@@ -19,60 +19,81 @@ pub fn span_mask(a: i32, b: i32) -> u32 {
     (((1u64 << hi) - 1) & !((1u64 << lo) - 1)) as u32
 }
 
-/// Whether `mask` (with the tile's outside bits) covers the whole tile.
+/// The lesser of two values by one comparison (`f32::min`/`f64::min` add NaN fix-ups
+/// that cost a fifth of a draw): with a NaN it answers `b`, which every caller makes
+/// a bound that holds (a vertex's `1/w`) or drops.
 #[inline(always)]
-fn full(mask: &[u32; H], outside: &[u32; H]) -> bool {
-    let mut all = !0u32;
-    for r in 0..H {
-        all &= mask[r] | outside[r];
-    }
-    all == !0
+pub(super) fn lesser<T: PartialOrd>(a: T, b: T) -> T {
+    if a < b { a } else { b }
 }
 
+/// The greater of two values by one comparison (see [`lesser`]).
 #[inline(always)]
-fn count(mask: &[u32; H]) -> u32 {
-    mask.iter().map(|m| m.count_ones()).sum()
+pub(super) fn greater<T: PartialOrd>(a: T, b: T) -> T {
+    if a > b { a } else { b }
 }
 
-/// Folds a triangle's coverage `cov` of a tile, whose fragments there all lie at
-/// `1/w ≥ z`, into the tile, keeping its two statements true (module docs).
+/// Folds a triangle's coverage `cov` of one tile row, whose fragments there all lie at
+/// `1/w ≥ z`, into the row's mask and bounds, keeping its two statements true
+/// (module docs); `outside` are the row's pixels past the viewport.
 #[inline(always)]
-pub fn merge(tile: &mut Tile, cov: &[u32; H], z: f32, outside: &[u32; H]) {
-    if z <= tile.base {
+pub fn merge_row(mask: &mut u32, base: &mut f32, layer: &mut f32, cov: u32, z: f32, outside: u32) {
+    if z <= *base || cov == 0 {
         return; // says nothing the base does not
     }
-    let mut merged = [0u32; H];
-    for r in 0..H {
-        merged[r] = tile.mask[r] | cov[r];
+    if cov | outside == !0 {
+        // The whole row (the common case): a new base, above which the layer may stay.
+        *base = z;
+        if *layer <= z {
+            (*mask, *layer) = (0, 0.0);
+        }
+        return;
     }
-    if tile.layer == 0.0 {
-        (tile.mask, tile.layer) = (*cov, z);
-    } else if full(&merged, outside) {
-        // The two together cover the tile: the farther bound is the new base, and the
+    let merged = *mask | cov;
+    if *layer == 0.0 {
+        (*mask, *layer) = (cov, z);
+    } else if merged | outside == !0 {
+        // The two together cover the row: the farther bound is the new base, and the
         // nearer one stays the layer over its own pixels.
-        let nearer = if tile.layer >= z {
-            (tile.mask, tile.layer)
+        let nearer = if *layer >= z {
+            (*mask, *layer)
         } else {
-            (*cov, z)
+            (cov, z)
         };
-        tile.base = tile.layer.min(z);
-        (tile.mask, tile.layer) = nearer;
-    } else if z >= tile.layer {
-        tile.mask = merged; // the layer's bound holds for the triangle's pixels too
+        *base = lesser(*layer, z);
+        (*mask, *layer) = nearer;
+    } else if z >= *layer {
+        *mask = merged; // the layer's bound holds for the triangle's pixels too
     } else {
         // Farther than the layer: lowering the layer to z over both, or keeping it as
-        // it is, whichever keeps the larger sum of bounds over the tile's pixels.
-        let keep = (tile.layer - tile.base) as f64 * count(&tile.mask) as f64;
-        let lower = (z - tile.base) as f64 * count(&merged) as f64;
+        // it is, whichever keeps the larger sum of bounds over the row's pixels.
+        let keep = (*layer - *base) * mask.count_ones() as f32;
+        let lower = (z - *base) * merged.count_ones() as f32;
         if lower > keep {
-            (tile.mask, tile.layer) = (merged, z);
+            (*mask, *layer) = (merged, z);
         }
     }
-    if full(&tile.mask, outside) {
-        (tile.base, tile.mask, tile.layer) = (tile.layer, [0; H], 0.0);
+    if *mask | outside == !0 {
+        (*base, *mask, *layer) = (*layer, 0, 0.0);
     }
-    if tile.layer <= tile.base || tile.mask == [0; H] {
-        (tile.mask, tile.layer) = ([0; H], 0.0);
+    if *layer <= *base || *mask == 0 {
+        (*mask, *layer) = (0, 0.0);
+    }
+}
+
+/// [`merge_row`] for each row of a tile: `z[r]` bounds the triangle's fragments in row
+/// `r`.
+#[inline(always)]
+pub fn merge(tile: &mut Tile, cov: &[u32; H], z: &[f32; H], outside: &[u32; H]) {
+    for r in 0..H {
+        merge_row(
+            &mut tile.mask[r],
+            &mut tile.base[r],
+            &mut tile.layer[r],
+            cov[r],
+            z[r],
+            outside[r],
+        );
     }
 }
 
@@ -133,18 +154,25 @@ pub fn tile_rows(t: &SpanTriangle, y: u32) -> ([i32; H], [i32; H]) {
     (first, last)
 }
 
-/// Calls `f(i, tx, ty, cov, least, greatest)` for each tile `(tx, ty)` (index `i`)
-/// whose pixels `t` covers: `cov` its covered pixels there (exactly its spans'),
-/// `least` and `greatest` the least and greatest `1/w` of its plane over the rows and
-/// columns of `cov` (at corners of that rectangle), within its vertices' range. Stops,
-/// answering false, when `f` does.
+/// One tile's share of a triangle ([`for_each_tile`]): per row, its covered pixels
+/// (exactly its spans') and the least and greatest `1/w` of its plane over them (at
+/// the row's first and last covered pixel, within the vertices' range); rows it does
+/// not cover have no pixels and bounds of 0.
+pub(super) struct TileShare {
+    pub cov: [u32; H],
+    pub least: [f64; H],
+    pub greatest: [f64; H],
+}
+
+/// Calls `f(i, tx, ty, share)` for each tile `(tx, ty)` (index `i`) whose pixels `t`
+/// covers. Stops, answering false, when `f` does.
 #[inline(always)]
 pub(super) fn for_each_tile(
     t: &SpanTriangle,
     tiles_x: u32,
-    mut f: impl FnMut(usize, u32, u32, &[u32; H], f64, f64) -> bool,
+    mut f: impl FnMut(usize, u32, u32, &TileShare) -> bool,
 ) -> bool {
-    let (sx, sy) = t.inv_w_slopes();
+    let (sx, _) = t.inv_w_slopes();
     let farthest = t.farthest_inv_w();
     let nearest = t.bounds().1;
     for ty in t.tri.y0 / TILE_H..=t.tri.y1 / TILE_H {
@@ -159,27 +187,42 @@ pub(super) fn for_each_tile(
         if xb < 0 {
             continue;
         }
-        let py = (ty * TILE_H) as f64 + 0.5;
+        // The plane at each row's first pixel, and its step along the row.
+        let mut at_first = [0.0; H];
+        for (r, v) in at_first.iter_mut().enumerate() {
+            let py = (ty * TILE_H + r as u32) as f64 + 0.5;
+            *v = t.inv_w_at(first[r] as f64 + 0.5, py);
+        }
         for tx in xa as u32 / TILE_W..=xb as u32 / TILE_W {
-            let base = (tx * TILE_W) as i32;
-            let mut cov = [0u32; H];
+            let x0 = (tx * TILE_W) as i32;
+            let mut share = TileShare {
+                cov: [0; H],
+                least: [0.0; H],
+                greatest: [0.0; H],
+            };
             let mut any = 0;
             for r in 0..H {
-                cov[r] = span_mask(first[r] - base, last[r] - base);
-                any |= cov[r];
+                let (a, b) = (first[r].max(x0), last[r].min(x0 + TILE_W as i32 - 1));
+                share.cov[r] = span_mask(a - x0, b - x0);
+                any |= share.cov[r];
+                let va = at_first[r] + sx * (a - first[r]) as f64;
+                let vb = at_first[r] + sx * (b - first[r]) as f64;
+                let covered = a <= b;
+                share.least[r] = if covered {
+                    greater(lesser(va, vb), farthest)
+                } else {
+                    0.0
+                };
+                share.greatest[r] = if covered {
+                    lesser(greater(va, vb), nearest)
+                } else {
+                    0.0
+                };
             }
             if any == 0 {
                 continue; // the rows' spans pass by this tile
             }
-            let ra = cov.iter().position(|&m| m != 0).unwrap_or(0);
-            let rb = H - 1 - cov.iter().rev().position(|&m| m != 0).unwrap_or(0);
-            let a = base + any.trailing_zeros() as i32;
-            let b = base + (TILE_W - 1 - any.leading_zeros()) as i32;
-            let corner = t.inv_w_at(a as f64 + 0.5, py + ra as f64);
-            let (dx, dy) = (sx * (b - a) as f64, sy * (rb - ra) as f64);
-            let least = (corner + dx.min(0.0) + dy.min(0.0)).max(farthest);
-            let greatest = (corner + dx.max(0.0) + dy.max(0.0)).min(nearest);
-            if !f((ty * tiles_x + tx) as usize, tx, ty, &cov, least, greatest) {
+            if !f((ty * tiles_x + tx) as usize, tx, ty, &share) {
                 return false;
             }
         }
@@ -187,33 +230,25 @@ pub(super) fn for_each_tile(
     true
 }
 
-/// Whether every bit of `part` is in `whole`.
-#[inline(always)]
-pub(super) fn within(part: &[u32; H], whole: &[u32; H]) -> bool {
-    let mut missing = 0;
-    for r in 0..H {
-        missing |= part[r] & !whole[r];
-    }
-    missing == 0
-}
-
 /// Draws one screen triangle into the tiles it covers.
 #[inline(always)]
 pub(super) fn raster(map: &mut MaskedMap, t: &SpanTriangle) {
     let index = map.tris.len() as u32;
-    for_each_tile(t, map.tiles_x, |i, _, _, cov, least, greatest| {
+    for_each_tile(t, map.tiles_x, |i, _, _, share| {
         // The upper bound and the coverage first: they hold wherever it is drawn.
+        let greatest = share.greatest.iter().fold(0.0f64, |a, &b| greater(a, b));
         let up = (greatest * (1.0 + BOUND_ROUNDING)) as f32;
         map.upper[i] = map.upper[i].max(if up < f32::INFINITY { up } else { f32::MAX });
-        for (c, &m) in map.covered[i].iter_mut().zip(cov) {
+        for (c, &m) in map.covered[i].iter_mut().zip(&share.cov) {
             *c |= m;
         }
         map.exact.hit(i as u32, index);
-        let z = (least * (1.0 - BOUND_ROUNDING)) as f32;
-        // (Else no bound worth keeping, or not a number.)
-        if z > 0.0 && z < f32::INFINITY {
-            merge(&mut map.tiles[i], cov, z, &map.outside[i]);
-        }
+        let z = share.least.map(|least| {
+            let v = (least * (1.0 - BOUND_ROUNDING)) as f32;
+            // (Else no bound worth keeping, or not a number: the row is left alone.)
+            if v > 0.0 && v < f32::INFINITY { v } else { 0.0 }
+        });
+        merge(&mut map.tiles[i], &share.cov, &z, &map.outside[i]);
         true
     });
 }

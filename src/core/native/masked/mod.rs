@@ -1,41 +1,51 @@
 //! The masked occlusion map: coverage as bitmasks and depth as two conservative
-//! bounds per tile, in the spirit of Masked Software Occlusion Culling (Andersson et
-//! al. 2015), with per-pixel depth drawn only for the tiles the refinement reads.
+//! bounds per row of a tile, in the spirit of Masked Software Occlusion Culling
+//! (Andersson et al. 2015), with per-pixel depth drawn only for the tiles the
+//! refinement reads.
 //!
-//! The screen is cut into tiles of [`TILE_W`]×[`TILE_H`] pixels (one `u32` of coverage
-//! per tile row, a tile is one AVX2 register of masks). Each tile keeps two lower
-//! bounds on the `1/w` of the nearest occluder fragment of its pixels (`1/w` is the
-//! inverse view depth: larger is nearer, 0 is "nothing there"):
-//! - `base`: every pixel of the tile holds an occluder fragment at least this near
-//!   (0 until the tile is covered whole);
+//! The screen is cut into tiles of [`TILE_W`]×[`TILE_H`] pixels: one `u32` of coverage
+//! per tile row, so a tile's masks are one AVX2 register. Each row of a tile (a 32×1
+//! strip) keeps two lower bounds on the `1/w` of the nearest occluder fragment of its
+//! pixels (`1/w` is the inverse view depth: larger is nearer, 0 is "nothing there"):
+//! - `base`: every pixel of the row holds an occluder fragment at least this near
+//!   (0 until the row is covered whole);
 //! - `layer` over the pixels of `mask`: each of them holds one at least this near.
 //!
-//! A triangle is drawn tile by tile: its exact covered pixels of the tile's rows (the
-//! spans of [`SpanTriangle::row_block`], so coverage is the oracle's own, pixel
-//! centres and top-left rule) as a mask, and the least `1/w` of its plane over the
-//! covered part of the tile as its bound there. [`merge`] folds the pair into the
-//! tile keeping both statements true: a layer grown to the whole tile becomes the
-//! base, and where the tile cannot keep everything it keeps whichever bound holds
-//! more (the greater sum of bounds over its pixels), never a bound that is not
-//! true. A bound is only ever replaced by one at least as large, so a tile's bounds
-//! only grow nearer while occluders are drawn.
+//! A triangle is drawn tile by tile: its exact covered pixels of each row (the spans of
+//! [`SpanTriangle::row_block`], so coverage is the oracle's own: pixel centres and the
+//! top-left rule) as a mask, and the least `1/w` of its plane over the row's covered
+//! pixels (at the span's ends) as its bound there. [`merge_row`] folds the pair into
+//! the row keeping both statements true: a layer grown to the whole row becomes the
+//! base, and where the row cannot keep everything it keeps whichever bound holds more
+//! (the greater sum of bounds over its pixels). A base only grows; a layer may be
+//! lowered to hold over more pixels; every statement stays a lower bound.
 //!
 //! Why the tests on it never cull what the oracle sees:
-//! 1. Every statement a tile makes is a lower bound on what the oracle's per-pixel
+//! 1. Every statement a row makes is a lower bound on what the oracle's per-pixel
 //!    depth test holds there: a covered pixel is one the oracle covers with that
-//!    occluder triangle, and the plane's least value over a rectangle is at one of
-//!    its corners, taken in f64 and rounded down ([`BOUND_ROUNDING`]).
+//!    occluder triangle, and the plane's least value along a span is at one of its
+//!    ends, taken in f64 and rounded down ([`BOUND_ROUNDING`]).
 //! 2. [`MaskedMap::rect_hidden`] answers hidden only if every pixel of the rect is
 //!    shown by a bound to lie in front of the threshold; the box test asks it with the
-//!    box's nearest depth and the margin, as the per-pixel map's test did.
-//! 3. The refinement ([`MaskedMap::triangle_hidden_per_pixel`]) culls a fragment only where a
-//!    tile bound, or the tile's exact per-pixel depth ([`exact`]), lies in front of it
-//!    by the refinement's margin.
+//!    box's nearest depth and the margin, as the per-pixel map's test does.
+//! 3. The refinement ([`MaskedMap::triangle_hidden_per_pixel`]) culls a fragment only
+//!    where a bound, or the tile's exact per-pixel depth ([`exact`]), lies in front of
+//!    it by the refinement's margin.
+//!
+//! Occluders and triangles the map already hides are left out of the draw (their
+//! fragments lie behind bounds of drawn fragments, so no pixel's nearest fragment
+//! changes). The pyramid over the tiles is rebuilt at checkpoints; between them it
+//! may be stale, which is safe: its `far` reads bases, which only grow, and its
+//! `near` only decides when to descend to the tiles, which are read as they are.
 //!
 //! The tiles the refinement cannot settle from the bounds are drawn per pixel, once
-//! per pose, from the triangles kept in the order they were drawn, binned by tile row
-//! on first use. The per-pixel values are the same f64 plane rounded to f32, so the
-//! margin argument of `native::refine` carries over.
+//! per pose, from the triangles drawn into them (listed per tile as they are drawn).
+//! The per-pixel values are the same f64 plane stepped in f32 as the per-pixel map's,
+//! so the margin argument of `native::refine` carries over.
+//!
+//! Measured against the per-pixel map (`native::map`), which stays the served path:
+//! the same answers after the refinement, a weaker box test alone, and no faster in
+//! all (README, "Native CPU backend").
 
 mod draw;
 mod exact;
@@ -43,8 +53,8 @@ mod exact;
 use super::span::SpanTriangle;
 use crate::core::camera::{Camera, ScreenRect};
 use crate::core::scene::Scene;
-use draw::{draw_part, for_each_tile, raster, within};
-pub use draw::{merge, span_mask, tile_rows};
+use draw::{draw_part, for_each_tile, greater, lesser, raster};
+pub use draw::{merge, merge_row, span_mask, tile_rows};
 use exact::ExactTiles;
 
 /// Tile width in pixels: the bits of one `u32`.
@@ -71,16 +81,19 @@ const SKIP_TEST_MIN_PIXELS: u32 = 16;
 /// Most levels of the pyramid over the tiles.
 const MAX_LEVELS: usize = 18;
 
-/// One tile's coverage and bounds (see the module docs).
+/// One tile's coverage and bounds (see the module docs), kept per row of the tile: row
+/// `r` is a 32×1 strip with its own mask and bounds (the depth is as fine as a row,
+/// the coverage a bit per pixel).
 #[derive(Clone, Copy, Default, Debug, PartialEq)]
 pub struct Tile {
-    /// Bit `k` of row `r`: pixel `(TILE_W·tx + k, TILE_H·ty + r)` holds at least `layer`.
+    /// Bit `k` of row `r`: pixel `(TILE_W·tx + k, TILE_H·ty + r)` holds at least
+    /// `layer[r]`.
     pub mask: [u32; H],
-    /// Every pixel of the tile holds an occluder fragment at `1/w ≥ base`.
-    pub base: f32,
-    /// Every pixel of `mask` holds one at `1/w ≥ layer`; `layer > base` while `mask`
-    /// has a bit, 0 when it has none.
-    pub layer: f32,
+    /// Every pixel of row `r` holds an occluder fragment at `1/w ≥ base[r]`.
+    pub base: [f32; H],
+    /// Every pixel of `mask[r]` holds one at `1/w ≥ layer[r]`; `layer[r] > base[r]`
+    /// while `mask[r]` has a bit, 0 when it has none.
+    pub layer: [f32; H],
 }
 
 impl Tile {
@@ -88,10 +101,21 @@ impl Tile {
     #[inline(always)]
     pub fn bound_at(&self, r: usize, k: u32) -> f32 {
         if self.mask[r] >> k & 1 == 1 {
-            self.layer
+            self.layer[r]
         } else {
-            self.base
+            self.base[r]
         }
+    }
+
+    /// The least bound of any of its pixels, and the greatest.
+    #[inline(always)]
+    fn range(&self) -> (f32, f32) {
+        let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
+        for r in 0..H {
+            lo = lesser(lo, self.base[r]);
+            hi = greater(greater(hi, self.base[r]), self.layer[r]);
+        }
+        (lo, hi)
     }
 }
 
@@ -233,14 +257,13 @@ impl MaskedMap {
                         let (cx, cy) = (2 * x + dx, 2 * y + dy);
                         if cx < cw && cy < ch {
                             let (cf, cn) = if l == 0 {
-                                let t = &self.tiles[(cy * cw + cx) as usize];
-                                (t.base, t.base.max(t.layer))
+                                self.tiles[(cy * cw + cx) as usize].range()
                             } else {
                                 let j = self.offsets[l - 1] + (cy * cw + cx) as usize;
                                 (self.far[j], self.near[j])
                             };
-                            f = f.min(cf);
-                            n = n.max(cn);
+                            f = lesser(f, cf);
+                            n = greater(n, cn);
                         }
                     }
                     let i = o + (y * w + x) as usize;
@@ -254,8 +277,7 @@ impl MaskedMap {
 
     /// True if every pixel of `r` holds an occluder fragment at `1/w > t` by the
     /// map's bounds. The tiles are read as they are now; the pyramid above them may be
-    /// older (bounds only grow, so an old texel can only answer "not hidden" more
-    /// often).
+    /// older (module docs: that only makes it descend to the tiles more often).
     #[inline(always)]
     pub fn rect_hidden(&self, r: &ScreenRect, t: f32) -> bool {
         let (tx0, ty0) = (r.x0 / TILE_W, r.y0 / TILE_H);
@@ -305,24 +327,20 @@ impl MaskedMap {
     #[inline(always)]
     fn tile_hidden(&self, r: &ScreenRect, tx: u32, ty: u32, t: f32) -> bool {
         let tile = &self.tiles[(ty * self.tiles_x + tx) as usize];
-        if tile.base > t {
-            return true;
-        }
-        if tile.layer <= t {
-            return false;
-        }
         let cols = span_mask(
             r.x0 as i32 - (tx * TILE_W) as i32,
             r.x1 as i32 - 1 - (tx * TILE_W) as i32,
         );
         let y0 = r.y0.max(ty * TILE_H) - ty * TILE_H;
         let y1 = r.y1.min((ty + 1) * TILE_H) - ty * TILE_H;
-        let mut missing = 0;
+        let mut all = true;
         for row in 0..H {
             let inside = (row as u32) >= y0 && (row as u32) < y1;
-            missing |= if inside { cols & !tile.mask[row] } else { 0 };
+            let by_base = tile.base[row] > t;
+            let by_layer = tile.layer[row] > t && cols & !tile.mask[row] == 0;
+            all &= !inside || by_base || by_layer;
         }
-        missing == 0
+        all
     }
 
     /// True if the bounds show every fragment of `t` behind the map by the relative
@@ -342,19 +360,29 @@ impl MaskedMap {
     pub fn triangle_hidden_per_pixel(&mut self, t: &SpanTriangle, margin: f64) -> bool {
         let k = 1.0 + margin;
         let tiles_x = self.tiles_x;
-        for_each_tile(t, tiles_x, |i, tx, ty, cov, least, greatest| {
+        for_each_tile(t, tiles_x, |i, tx, ty, share| {
             let tile = &self.tiles[i];
-            let need = greatest * k;
-            if tile.base as f64 > need || (tile.layer as f64 > need && within(cov, &tile.mask)) {
+            // Rows the bounds leave in doubt.
+            let doubt: [bool; H] = std::array::from_fn(|r| {
+                let need = share.greatest[r] * k;
+                let by_base = tile.base[r] as f64 > need;
+                let by_layer = tile.layer[r] as f64 > need && share.cov[r] & !tile.mask[r] == 0;
+                share.cov[r] != 0 && !by_base && !by_layer
+            });
+            if doubt == [false; H] {
                 return true;
             }
-            if !within(cov, &self.covered[i]) || least * k >= self.upper[i] as f64 {
+            let shows = |r: usize| {
+                share.cov[r] & !self.covered[i][r] != 0
+                    || share.least[r] * k >= self.upper[i] as f64
+            };
+            if (0..H).any(|r| doubt[r] && shows(r)) {
                 return false;
             }
             let px = self.exact.tile(&self.tris, tiles_x, tx, ty);
-            for (r, &row) in cov.iter().enumerate() {
+            for r in (0..H).filter(|&r| doubt[r]) {
                 let py = (ty * TILE_H + r as u32) as f64 + 0.5;
-                let mut bits = row;
+                let mut bits = share.cov[r];
                 while bits != 0 {
                     let c = bits.trailing_zeros();
                     bits &= bits - 1;

@@ -153,12 +153,20 @@ fn merging_keeps_every_pixels_bound_below_its_nearest_fragment() {
                 };
                 m & !outside[r]
             });
-            let z = rng.random_range(0.01f32..1.0);
-            merge(&mut tile, &cov, z, &outside);
+            // One bound for the whole tile, or one per row.
+            let one = rng.random_range(0.01f32..1.0);
+            let z: [f32; H] = std::array::from_fn(|_| {
+                if round % 2 == 0 {
+                    one
+                } else {
+                    rng.random_range(0.01f32..1.0)
+                }
+            });
+            merge(&mut tile, &cov, &z, &outside);
             for r in 0..H {
                 for k in 0..TILE_W {
                     if cov[r] >> k & 1 == 1 {
-                        nearest[r][k as usize] = nearest[r][k as usize].max(z);
+                        nearest[r][k as usize] = nearest[r][k as usize].max(z[r]);
                     }
                 }
             }
@@ -170,12 +178,14 @@ fn merging_keeps_every_pixels_bound_below_its_nearest_fragment() {
                     }
                 }
             }
-            assert!(tile.mask.iter().any(|&m| m != 0) == (tile.layer > 0.0));
-            assert!(tile.layer == 0.0 || tile.layer > tile.base);
+            for r in 0..H {
+                assert!((tile.mask[r] != 0) == (tile.layer[r] > 0.0), "{tile:?}");
+                assert!(tile.layer[r] == 0.0 || tile.layer[r] > tile.base[r]);
+            }
         }
     }
     // One triangle over the whole tile makes the base.
     let mut tile = Tile::default();
-    merge(&mut tile, &[!0; H], 0.5, &[0; H]);
-    assert_eq!((tile.base, tile.layer), (0.5, 0.0));
+    merge(&mut tile, &[!0; H], &[0.5; H], &[0; H]);
+    assert_eq!((tile.base, tile.layer), ([0.5; H], [0.0; H]));
 }
