@@ -168,33 +168,27 @@ fn pose_hom_refined(bencher: Bencher, name: &str) {
 /// outside the timing, beside `pose_masked_unplanned`.
 #[divan::bench(args = SCENES)]
 fn pose_per_pixel_unplanned(bencher: Bencher, name: &str) {
-    let b = scene(name);
-    let plans = plans(b, Method::Hom);
-    let s = settings(b, Method::Hom);
-    bencher
-        .counter(divan::counter::ItemsCount::new(plans.len()))
-        .bench_local(|| {
-            plans
-                .iter()
-                .map(|p| NativeBackend::pose_mask(&b.prep, p, &s)[0])
-                .sum::<u32>()
-        });
+    unplanned(bencher, name, NativeBackend::pose_mask);
 }
 
 /// The whole pose on the masked map (`MaskedBackend`), planned outside the timing.
 #[divan::bench(args = SCENES)]
 fn pose_masked_unplanned(bencher: Bencher, name: &str) {
+    unplanned(bencher, name, NativeBackend::pose_mask_masked);
+}
+
+/// Every pose's image-space work by `mask` (refined HOM), the poses planned first.
+fn unplanned(
+    bencher: Bencher,
+    name: &str,
+    mask: fn(&PreparedScene, &PosePlan, &CullSettings) -> Vec<u32>,
+) {
     let b = scene(name);
     let plans = plans(b, Method::Hom);
     let s = settings(b, Method::Hom);
     bencher
         .counter(divan::counter::ItemsCount::new(plans.len()))
-        .bench_local(|| {
-            plans
-                .iter()
-                .map(|p| NativeBackend::pose_mask_masked(&b.prep, p, &s)[0])
-                .sum::<u32>()
-        });
+        .bench_local(|| plans.iter().map(|p| mask(&b.prep, p, &s)[0]).sum::<u32>());
 }
 
 #[divan::bench(args = SCENES)]

@@ -26,12 +26,19 @@ const REPS: usize = 5;
 
 /// The masked map's answer for one pose, and how long its draw, box test and
 /// refinement took (ms); `refine` false stops after the box test.
-fn masked(map: &mut MaskedMap, prep: &PreparedScene, p: &PosePlan, refine: bool) -> (Vec<u32>, [f64; 3]) {
+fn masked(
+    map: &mut MaskedMap,
+    prep: &PreparedScene,
+    p: &PosePlan,
+    refine: bool,
+) -> (Vec<u32>, [f64; 3]) {
     let t0 = Instant::now();
     map.reset(p.cam.width, p.cam.height);
     map.draw_occluders(&prep.scene, &p.cam, &p.occluders.ids);
     let t1 = Instant::now();
-    let mut mask = p.box_test(&prep.scene, |r| map.rect_hidden(r, (1.0 + DEPTH_MARGIN) / r.near));
+    let mut mask = p.box_test(&prep.scene, |r| {
+        map.rect_hidden(r, (1.0 + DEPTH_MARGIN) / r.near)
+    });
     let t2 = Instant::now();
     if refine {
         for &c in &p.candidates {
@@ -59,18 +66,47 @@ fn quality(plans: &[PosePlan], masks: &[Vec<u32>], oracle: &[Vec<u32>]) -> (f64,
 }
 
 fn main() {
-    let poses: usize = std::env::var("POSES").ok().and_then(|v| v.parse().ok()).unwrap_or(32);
+    let poses: usize = std::env::var("POSES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(32);
     let dir = std::env::var("HOMCULL_SCENES").unwrap_or_else(|_| "../shared/scenes".into());
-    rayon::ThreadPoolBuilder::new().num_threads(1).build_global().expect("a one-thread pool");
-    println!("scene      | masked draw box refine = total | per-pixel | false culls | refined eff | box test eff masked / per-pixel");
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build_global()
+        .expect("a one-thread pool");
+    println!(
+        "scene      | masked draw box refine = total | per-pixel | false culls | refined eff | box test eff masked / per-pixel"
+    );
     for name in ["munich", "etoile", "oa_shouse", "oa_dm1"] {
-        let scene = load_path(&std::path::Path::new(&dir).join(format!("{name}.glb"))).expect("a shared scene");
+        let scene = load_path(&std::path::Path::new(&dir).join(format!("{name}.glb")))
+            .expect("a shared scene");
         let sampled = PoseSampler::new(&scene).sample(poses, 1, [960, 540], &|_| true);
         let prep = PreparedScene::new(scene, OccluderParams::default());
-        let opts = |method, refine| CullSettings::new(CullOptions { method, refine, ..CullOptions::default() }, &prep);
-        let (hom, boxes, exact) = (opts(Method::Hom, true), opts(Method::Hom, false), opts(Method::Exact, false));
-        let plans: Vec<PosePlan> = sampled.poses.iter().map(|p| plan(&prep, &Camera::new(p).expect("a pose"), &hom)).collect();
-        let oracle: Vec<Vec<u32>> = plans.iter().map(|p| NativeBackend::pose_mask(&prep, p, &exact)).collect();
+        let opts = |method, refine| {
+            CullSettings::new(
+                CullOptions {
+                    method,
+                    refine,
+                    ..CullOptions::default()
+                },
+                &prep,
+            )
+        };
+        let (hom, boxes, exact) = (
+            opts(Method::Hom, true),
+            opts(Method::Hom, false),
+            opts(Method::Exact, false),
+        );
+        let plans: Vec<PosePlan> = sampled
+            .poses
+            .iter()
+            .map(|p| plan(&prep, &Camera::new(p).expect("a pose"), &hom))
+            .collect();
+        let oracle: Vec<Vec<u32>> = plans
+            .iter()
+            .map(|p| NativeBackend::pose_mask(&prep, p, &exact))
+            .collect();
         let mut map = MaskedMap::default();
         let (mut parts, mut per_pixel) = ([0.0; 3], 0.0);
         let mut answers = Vec::new();
@@ -90,8 +126,14 @@ fn main() {
             answers.push(masked(&mut map, &prep, p, true).0);
         }
         let (eff, wrong) = quality(&plans, &answers, &oracle);
-        let masked_boxes: Vec<Vec<u32>> = plans.iter().map(|p| masked(&mut map, &prep, p, false).0).collect();
-        let pixel_boxes: Vec<Vec<u32>> = plans.iter().map(|p| NativeBackend::pose_mask(&prep, p, &boxes)).collect();
+        let masked_boxes: Vec<Vec<u32>> = plans
+            .iter()
+            .map(|p| masked(&mut map, &prep, p, false).0)
+            .collect();
+        let pixel_boxes: Vec<Vec<u32>> = plans
+            .iter()
+            .map(|p| NativeBackend::pose_mask(&prep, p, &boxes))
+            .collect();
         let n = plans.len() as f64;
         println!(
             "{name:10} | {:.3} {:.3} {:.3} = {:.3} ms | {:.3} ms | {wrong} | {eff:.4} | {:.3} / {:.3}",

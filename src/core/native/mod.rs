@@ -148,15 +148,9 @@ impl NativeBackend {
         map.draw_occluders(scene, &p.cam, &p.occluders.ids);
         let mut mask = masked_box_test(map, prep, p);
         if s.refines() {
-            for &c in &p.candidates {
-                // A moving object's boxes bound its motion; its triangles do not.
-                if has_bit(&mask, c)
-                    && !prep.is_moving(c)
-                    && refine::hidden_masked(map, scene, &p.cam, c)
-                {
-                    clear_bit(&mut mask, c);
-                }
-            }
+            refine_survivors(&mut mask, prep, p, |c| {
+                refine::hidden_masked(map, scene, &p.cam, c)
+            });
         }
         mask
     }
@@ -179,15 +173,9 @@ impl NativeBackend {
             Self::test_boxes(map, prep, p, s)
         };
         if s.refines() {
-            for &c in &p.candidates {
-                // A moving object's boxes bound its motion; its triangles do not.
-                if has_bit(&mask, c)
-                    && !prep.is_moving(c)
-                    && refine::hidden_per_pixel(map, scene, &p.cam, c)
-                {
-                    clear_bit(&mut mask, c);
-                }
-            }
+            refine_survivors(&mut mask, prep, p, |c| {
+                refine::hidden_per_pixel(map, scene, &p.cam, c)
+            });
         }
         mask
     }
@@ -217,6 +205,22 @@ impl NativeBackend {
         let layout = pyramid::LevelLayout::new(p.cam.width, p.cam.height);
         let (opacity, depth) = pyramid::build(&layout, &depth);
         ReferenceBackend::test_boxes(&prep.scene, p, s, &layout, &opacity, &depth)
+    }
+}
+
+/// Clears from `mask` each candidate of `p` that survived the box test and `hidden`
+/// proves hidden per pixel. A moving object is left as the box test answered: its
+/// boxes bound its motion, its triangles do not.
+fn refine_survivors(
+    mask: &mut [u32],
+    prep: &PreparedScene,
+    p: &PosePlan,
+    mut hidden: impl FnMut(u32) -> bool,
+) {
+    for &c in &p.candidates {
+        if has_bit(mask, c) && !prep.is_moving(c) && hidden(c) {
+            clear_bit(mask, c);
+        }
     }
 }
 
