@@ -202,7 +202,10 @@ pub(super) fn for_each_tile(
             };
             let mut any = 0;
             for r in 0..H {
-                let (a, b) = (first[r].max(x0), last[r].min(x0 + TILE_W as i32 - 1));
+                // An empty row's ends may hold anything: b is kept at a - 1 or above,
+                // so that no difference below overflows.
+                let a = first[r].max(x0);
+                let b = last[r].min(x0 + TILE_W as i32 - 1).max(a - 1);
                 share.cov[r] = span_mask(a - x0, b - x0);
                 any |= share.cov[r];
                 let va = at_first[r] + sx * (a - first[r]) as f64;

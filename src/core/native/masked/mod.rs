@@ -107,13 +107,17 @@ impl Tile {
         }
     }
 
-    /// The least bound of any of its pixels, and the greatest.
+    /// The least bound of any of its pixels inside the viewport, and the greatest
+    /// (rows wholly `outside` it, below the last pixel row, never get a bound and no
+    /// rect reaches them).
     #[inline(always)]
-    fn range(&self) -> (f32, f32) {
+    fn range(&self, outside: &[u32; H]) -> (f32, f32) {
         let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
-        for r in 0..H {
-            lo = lesser(lo, self.base[r]);
-            hi = greater(greater(hi, self.base[r]), self.layer[r]);
+        for ((&base, &layer), &out) in self.base.iter().zip(&self.layer).zip(outside) {
+            if out != !0 {
+                lo = lesser(lo, base);
+                hi = greater(greater(hi, base), layer);
+            }
         }
         (lo, hi)
     }
@@ -216,8 +220,9 @@ impl MaskedMap {
 
     /// Draws the front faces of occluders `ids` (nearest first). After each
     /// [`CHECKPOINTS`] share of them the pyramid is rebuilt, and a later occluder whose
-    /// box the map already hides (the box test, margin included), or a later triangle
-    /// whose every fragment lies behind it, is left out: each of its fragments would
+    /// box the map already hides (the box test, margin included) is left out, as is
+    /// any triangle (from the first on) whose every fragment lies behind it, tested
+    /// against the tiles as they are and the pyramid as last built: each of its fragments would
     /// lie behind a bound the map already keeps, so no test of the map could change,
     /// and the per-pixel depth of every pixel is already nearer. Answers the number
     /// of occluders left out; the pyramid is built.
@@ -257,7 +262,8 @@ impl MaskedMap {
                         let (cx, cy) = (2 * x + dx, 2 * y + dy);
                         if cx < cw && cy < ch {
                             let (cf, cn) = if l == 0 {
-                                self.tiles[(cy * cw + cx) as usize].range()
+                                let j = (cy * cw + cx) as usize;
+                                self.tiles[j].range(&self.outside[j])
                             } else {
                                 let j = self.offsets[l - 1] + (cy * cw + cx) as usize;
                                 (self.far[j], self.near[j])

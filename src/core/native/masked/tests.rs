@@ -55,8 +55,10 @@ fn tile_bounds_never_exceed_the_per_pixel_map_and_exact_tiles_equal_it() {
             for x in 0..w {
                 let want = exact.pixels()[(y * w + x) as usize];
                 let bound = masked.bound_at(x, y);
+                // The bound holds under the plane; the per-pixel map is the plane
+                // stepped in f32 (within `LANE_SLACK`, 4e-6, of it).
                 assert!(
-                    bound <= want,
+                    bound as f64 <= want as f64 * (1.0 + 1e-5),
                     "pixel ({x}, {y}): bound {bound} above {want}"
                 );
                 bounded += (bound > 0.0) as u32;
