@@ -162,7 +162,6 @@ impl SpanTriangle {
         if y0 > y1 {
             return true;
         }
-        let v0 = self.tri.v[0];
         // Blocks start at multiples of ROWS, so that a triangle drawn band by band
         // (`map/draw.rs`) computes each of its rows once.
         for block in (y0 - y0 % ROWS as u32..=y1).step_by(ROWS) {
@@ -172,8 +171,7 @@ impl SpanTriangle {
                     continue;
                 }
                 let (y, x0, x1) = (block + r as u32, lo[r] as u32, hi[r] as u32);
-                let (px, py) = (x0 as f64 + 0.5, y as f64 + 0.5);
-                let start = v0.inv_w + self.slope * (px - v0.x) + self.slope_y * (py - v0.y);
+                let start = self.inv_w_at(x0 as f64 + 0.5, y as f64 + 0.5);
                 let span = Span {
                     x0,
                     x1,

@@ -202,16 +202,6 @@ impl MaskedMap {
         self.exact.reset();
     }
 
-    /// The tiles, row-major (`width.div_ceil(TILE_W)` across).
-    pub fn tiles(&self) -> &[Tile] {
-        &self.tiles
-    }
-
-    /// Tiles across.
-    pub fn tiles_x(&self) -> u32 {
-        self.tiles_x
-    }
-
     /// The lower bound the map keeps for pixel `(x, y)`.
     pub fn bound_at(&self, x: u32, y: u32) -> f32 {
         let tile = &self.tiles[((y / TILE_H) * self.tiles_x + x / TILE_W) as usize];
