@@ -147,6 +147,25 @@ impl SpanTriangle {
         v[0].inv_w.min(v[1].inv_w).min(v[2].inv_w)
     }
 
+    /// Whether the `1/w` plane stays far inside f32's range (below 1e30 in size)
+    /// over the triangle's box widened by two chunks of [`LANES`] pixels along x and a
+    /// row along y: then every lane a span kernel computes there, its f32 slope
+    /// times a lane offset included, is a finite number (never NaN or infinite).
+    #[inline]
+    pub fn plane_is_bounded(&self) -> bool {
+        let (t, v0) = (&self.tri, self.tri.v[0]);
+        let reach = 2.0 * LANES as f64;
+        let dx = (t.x0 as f64 - v0.x)
+            .abs()
+            .max((t.x1 as f64 + reach - v0.x).abs());
+        let dy = (t.y0 as f64 - v0.y)
+            .abs()
+            .max((t.y1 as f64 + 1.0 - v0.y).abs());
+        let size = v0.inv_w.abs() + self.slope.abs() * dx + self.slope_y.abs() * dy;
+        // NaN fails the comparison.
+        size < 1e30
+    }
+
     /// Pixels in the triangle's box.
     #[inline]
     pub fn box_pixels(&self) -> u32 {
@@ -230,21 +249,29 @@ impl SpanTriangle {
                 }
             }
         }
-        // A plain loop: `array::from_fn` is left a call per row, at the baseline SIMD
-        // level.
-        let (mut first, mut last) = ([0; ROWS], [-1; ROWS]);
+        // Every row lane-wise first, without a branch (a branch per row, with its
+        // arrays built on the stack, was a sixth of a draw): `as i32` saturates, so a
+        // row left empty by its edges stays first > last; rows outside `within` get
+        // last = -1 (first is never negative: lo starts at x0 ≥ 0).
+        let (mut first, mut last) = ([0; ROWS], [0; ROWS]);
+        let mut any_doubt = false;
         for r in 0..ROWS {
             let row = y + r as u32;
-            if row < within.0 || row > within.1 {
-                continue;
-            }
-            if doubt[r] {
-                if let Some((a, b)) = self.row(row) {
-                    (first[r], last[r]) = (a as i32, b as i32);
+            let wanted = row >= within.0 && row <= within.1;
+            first[r] = lo[r] as i32;
+            last[r] = if wanted { hi[r] as i32 } else { -1 };
+            any_doubt |= doubt[r] & wanted;
+        }
+        if any_doubt {
+            // A near tie (rare): those rows from the reference predicate.
+            for r in 0..ROWS {
+                let row = y + r as u32;
+                if doubt[r] && row >= within.0 && row <= within.1 {
+                    (first[r], last[r]) = match self.row(row) {
+                        Some((a, b)) => (a as i32, b as i32),
+                        None => (0, -1),
+                    };
                 }
-            } else {
-                // Within 0..=x1 when not empty; an empty row may hold anything.
-                (first[r], last[r]) = (lo[r] as i32, hi[r] as i32);
             }
         }
         (first, last)

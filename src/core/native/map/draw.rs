@@ -50,8 +50,11 @@ fn push_unhidden(
     out: &mut Vec<SpanTriangle>,
 ) {
     span_triangles(cam, tri, |t| {
-        let hidden =
-            skip_hidden && t.box_pixels() >= SKIP_TEST_MIN_PIXELS && map.triangle_hidden(t, 0.0);
+        // A plane past f32's range would write NaN or infinite lanes; leaving the
+        // triangle out leaves the map farther, never nearer (such slopes take f64
+        // coordinates no triangle covering a pixel centre has).
+        let hidden = !t.plane_is_bounded()
+            || skip_hidden && t.box_pixels() >= SKIP_TEST_MIN_PIXELS && map.triangle_hidden(t, 0.0);
         if !hidden {
             out.push(*t);
         }
@@ -97,12 +100,15 @@ pub(super) fn setup_occluders(
 }
 
 /// One band's share of [`draw_binned`]'s work: its index, its rows of the map, of the
-/// finest `far` and `near` bounds, and the triangles reaching it.
+/// finest `far` and `near` bounds, the triangles reaching it, and its dirty flag.
 type BandSlices<'a> = (
     usize,
     (
-        ((&'a mut [f32], &'a mut [f32]), &'a mut [f32]),
-        &'a Vec<u32>,
+        (
+            ((&'a mut [f32], &'a mut [f32]), &'a mut [f32]),
+            &'a Vec<u32>,
+        ),
+        &'a mut bool,
     ),
 );
 
@@ -118,6 +124,7 @@ type BandSlices<'a> = (
 pub(super) fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
     use rayon::prelude::*;
     let (w, h) = (map.width as usize, map.height);
+    map.dirty.resize(h.div_ceil(BAND) as usize, false);
     let mut bins = std::mem::take(&mut map.bins);
     bins.resize_with(h.div_ceil(BAND) as usize, Vec::new);
     bins.iter_mut().for_each(Vec::clear);
@@ -132,18 +139,29 @@ pub(super) fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
     let band_rows = BAND as usize * w;
     let pixels = &mut map.inv_w[..w * h as usize];
     let (far, near) = (&mut map.far[..level0], &mut map.near[..level0]);
-    let draw = |(band, (((px, far), near), list)): BandSlices| {
-        if !(bounded && list.is_empty()) {
-            // (Else the band's pixels, and so its bounds, are as they were.)
+    let draw = |(band, ((((px, far), near), list), dirty)): BandSlices| {
+        if !list.is_empty() {
             draw_band(px, far, near, w, band as u32 * BAND, tris, list);
+            *dirty = true;
+        } else if !bounded {
+            if *dirty {
+                bound_tile_rows(px, w, far, near);
+            } else {
+                // Every pixel is 0: so is every bound, without reading them.
+                far.fill(0.0);
+                near.fill(0.0);
+            }
         }
+        // (Else the band's pixels, and so its bounds, are as they were.)
     };
+    let mut dirty = std::mem::take(&mut map.dirty);
     if map.bands_in_parallel && rayon::current_num_threads() > 1 {
         pixels
             .par_chunks_mut(band_rows)
             .zip(far.par_chunks_mut(tile_rows))
             .zip(near.par_chunks_mut(tile_rows))
             .zip(&bins)
+            .zip(&mut dirty)
             .enumerate()
             .for_each(draw);
     } else {
@@ -152,9 +170,11 @@ pub(super) fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
             .zip(far.chunks_mut(tile_rows))
             .zip(near.chunks_mut(tile_rows))
             .zip(&bins)
+            .zip(&mut dirty)
             .enumerate()
             .for_each(draw);
     }
+    map.dirty = dirty;
     map.bins = bins;
     map.bound_upper_levels();
     map.bounded = true;
@@ -186,17 +206,23 @@ fn draw_band(
 
 /// `dst[i] = max(dst[i], 1/w of the span's pixel i)`: the nearest fragment wins.
 /// `dst` runs on to the span's [`Span::lanes_len`]; in the last chunk, lanes past the
-/// span hold 0, which leaves a pixel (never below 0) unchanged.
+/// span are set to 0 ([`TAIL_KEEP`]), which leaves a pixel (never below 0) unchanged.
 #[inline(always)]
 fn keep_nearest(dst: &mut [f32], s: &Span) {
     let pixels = s.pixels();
-    let full = pixels / LANES;
+    let (full, left) = (pixels / LANES, pixels % LANES);
     let mut chunks = dst.chunks_exact_mut(LANES);
     let mut lanes = s.lanes_from(0);
     for c in (&mut chunks).take(full) {
         keep_larger(c, &lanes.next_chunk());
     }
-    let tail = s.lanes_or(full * LANES, 0.0);
+    if left == 0 {
+        return;
+    }
+    let mut tail = lanes.next_chunk();
+    for (v, &keep) in tail.iter_mut().zip(&TAIL_KEEP[left]) {
+        *v = f32::from_bits(v.to_bits() & keep);
+    }
     if let Some(c) = chunks.next() {
         keep_larger(c, &tail);
     } else {
@@ -208,14 +234,29 @@ fn keep_nearest(dst: &mut [f32], s: &Span) {
     }
 }
 
+/// `TAIL_KEEP[n]`: all bits set in the first `n` lanes, none in the others. A span's
+/// last chunk is masked with it (one `and` per lane, where a blend by arithmetic took
+/// six operations).
+const TAIL_KEEP: [[u32; LANES]; LANES] = {
+    let mut m = [[0; LANES]; LANES];
+    let mut n = 0;
+    while n < LANES {
+        let mut k = 0;
+        while k < n {
+            m[n][k] = !0;
+            k += 1;
+        }
+        n += 1;
+    }
+    m
+};
+
 /// `c[k] = max(c[k], v[k])` for `1/w` values: compared as the integers of their bits,
 /// which order non-negative floats as the floats do (a negative `v` never wins, and
 /// the map holds no negative value). One integer `max` per lane, where `f32::max`
-/// adds NaN handling (and a compare and select becomes a masked store). A lane that
-/// is not a finite number (its bits would win) is dropped as 0: a lane is a value of
-/// a plane that lies between its vertices' `1/w` (at most `1/near`), so that takes a
-/// slope past f32's range, which f64 coordinates of a triangle covering a pixel
-/// centre do not give; should it happen, the map stays as it was, never nearer.
+/// adds NaN handling (and a compare and select becomes a masked store). No lane is a
+/// NaN or infinite (whose bits would win): only triangles whose plane is bounded in
+/// f32 over their box are drawn ([`SpanTriangle::plane_is_bounded`], checked at setup).
 #[inline(always)]
 fn keep_larger(c: &mut [f32], v: &[f32; LANES]) {
     for k in 0..LANES {
@@ -226,7 +267,20 @@ fn keep_larger(c: &mut [f32], v: &[f32; LANES]) {
 /// One lane of [`keep_larger`].
 #[inline(always)]
 fn keep_larger_one(c: &mut f32, v: f32) {
-    let v = if v < f32::INFINITY { v } else { 0.0 };
     let larger = (c.to_bits() as i32).max(v.to_bits() as i32);
     *c = f32::from_bits(larger as u32);
+}
+
+/// Zeroes the bands of `map` a draw wrote to since they were last cleared, and marks
+/// every band clean: at street level the upper bands (sky) are never drawn, and
+/// clearing the whole map was a memory-bound pass over all of it per pose.
+pub(super) fn clear_dirty_bands(map: &mut OcclusionMap) {
+    let band_rows = BAND as usize * map.width as usize;
+    let pixels = (map.width * map.height) as usize;
+    for (band, dirty) in map.dirty.iter_mut().enumerate() {
+        if std::mem::take(dirty) {
+            let start = band * band_rows;
+            map.inv_w[start..(start + band_rows).min(pixels)].fill(0.0);
+        }
+    }
 }

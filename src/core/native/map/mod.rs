@@ -26,7 +26,7 @@ mod draw;
 use super::span::{SpanTriangle, padded_len};
 use crate::core::camera::{Camera, ScreenRect};
 use crate::core::scene::Scene;
-use draw::{draw_binned, setup_occluders, setup_triangles};
+use draw::{clear_dirty_bands, draw_binned, setup_occluders, setup_triangles};
 
 /// Side of the pyramid's finest texels, in pixels.
 pub const TILE: u32 = 8;
@@ -63,6 +63,9 @@ pub struct OcclusionMap {
     pub bands_in_parallel: bool,
     /// The triangles reaching each band of the draw in progress.
     bins: Vec<Vec<u32>>,
+    /// Per band of rows, whether a draw may have left a pixel there nonzero since it
+    /// was last cleared ([`OcclusionMap::reset`] clears only those).
+    dirty: Vec<bool>,
 }
 
 impl OcclusionMap {
@@ -99,8 +102,9 @@ impl OcclusionMap {
             self.far = vec![0.0; total];
             self.near = vec![0.0; total];
             self.inv_w = vec![0.0; padded_len(n)];
+            self.dirty.clear();
         } else {
-            self.inv_w.fill(0.0);
+            clear_dirty_bands(self);
         }
         self.bounded = false;
     }
