@@ -260,13 +260,14 @@ impl SpanTriangle {
             let wanted = row >= within.0 && row <= within.1;
             first[r] = lo[r] as i32;
             last[r] = if wanted { hi[r] as i32 } else { -1 };
-            any_doubt |= doubt[r] & wanted;
+            doubt[r] &= wanted;
+            any_doubt |= doubt[r];
         }
         if any_doubt {
             // A near tie (rare): those rows from the reference predicate.
             for r in 0..ROWS {
-                let row = y + r as u32;
-                if doubt[r] && row >= within.0 && row <= within.1 {
+                if doubt[r] {
+                    let row = y + r as u32;
                     (first[r], last[r]) = match self.row(row) {
                         Some((a, b)) => (a as i32, b as i32),
                         None => (0, -1),

@@ -124,9 +124,10 @@ type BandSlices<'a> = (
 pub(super) fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
     use rayon::prelude::*;
     let (w, h) = (map.width as usize, map.height);
-    map.dirty.resize(h.div_ceil(BAND) as usize, false);
+    let bands = h.div_ceil(BAND) as usize;
+    map.dirty.resize(bands, false);
     let mut bins = std::mem::take(&mut map.bins);
-    bins.resize_with(h.div_ceil(BAND) as usize, Vec::new);
+    bins.resize_with(bands, Vec::new);
     bins.iter_mut().for_each(Vec::clear);
     for (i, t) in tris.iter().enumerate() {
         for band in &mut bins[(t.tri.y0 / BAND) as usize..=(t.tri.y1 / BAND) as usize] {
@@ -144,13 +145,11 @@ pub(super) fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
             draw_band(px, far, near, w, band as u32 * BAND, tris, list);
             *dirty = true;
         } else if !bounded {
-            if *dirty {
-                bound_tile_rows(px, w, far, near);
-            } else {
-                // Every pixel is 0: so is every bound, without reading them.
-                far.fill(0.0);
-                near.fill(0.0);
-            }
+            // The first draw since a reset, which left every band clean: each pixel
+            // is 0, so is each bound, without reading them.
+            debug_assert!(!*dirty, "a reset clears every dirty band");
+            far.fill(0.0);
+            near.fill(0.0);
         }
         // (Else the band's pixels, and so its bounds, are as they were.)
     };
