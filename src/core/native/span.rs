@@ -350,8 +350,9 @@ impl Span {
 
     /// The span's pixels rounded up to whole [`LANES`]: what the kernels read and
     /// write from its first pixel. Buffers they run on keep `LANES - 1` pixels of
-    /// padding past their last row ([`padded_len`]), and a kernel leaves the lanes
-    /// past the span unchanged with a lane blend ([`Span::lanes_or`]), never a masked
+    /// padding past their last row ([`padded_len`]), and a kernel leaves the pixels
+    /// past the span unchanged with a lane blend ([`Span::lanes_or`]) or a bit mask
+    /// (the map draw's `TAIL_KEEP`: lanes of 0, which never win), never a masked
     /// load or store (microcoded on some CPUs, and the costliest part of a short span).
     pub fn lanes_len(&self) -> usize {
         self.pixels().next_multiple_of(LANES)
