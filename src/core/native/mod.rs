@@ -42,6 +42,7 @@
 //! and as slow as the reference's test. The CPU reference (`core::hom`) stays the
 //! test oracle of every pass here.
 
+mod descent;
 pub mod map;
 pub mod masked;
 pub mod refine;

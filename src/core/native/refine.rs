@@ -80,15 +80,20 @@ pub fn hidden_masked(map: &mut MaskedMap, scene: &Scene, cam: &Camera, id: u32) 
 #[inline(always)]
 fn span_hidden(occ: &[f32], s: &Span) -> bool {
     let k = 1.0 + REFINE_MARGIN;
-    occ.chunks_exact(LANES).enumerate().all(|(n, c)| {
+    // A plain loop: as `chunks_exact(..).enumerate().all(..)` it was left to an
+    // out-of-line `try_fold`, compiled without the caller's AVX2 (a tenth of a pose).
+    for (n, c) in occ.chunks_exact(LANES).enumerate() {
         // Past the span, -1: every map value (never below 0) lies in front of it.
         let v = s.lanes_or(n * LANES, -1.0);
         let mut all = true;
         for j in 0..LANES {
             all &= c[j] > k * v[j];
         }
-        all
-    })
+        if !all {
+            return false;
+        }
+    }
+    true
 }
 
 /// Scratch buffers of the ID-buffer cull, kept from pose to pose.

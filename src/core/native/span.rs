@@ -79,6 +79,7 @@ pub struct SpanTriangle {
 }
 
 impl SpanTriangle {
+    #[inline(always)]
     pub fn new(tri: ScreenTriangle) -> Self {
         let v = &tri.v;
         let edges = [0, 1, 2].map(|k| {

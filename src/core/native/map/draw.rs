@@ -8,7 +8,8 @@ use glam::Vec3;
 use super::{OcclusionMap, TILE, bound_tile_rows, front_facing};
 use crate::core::camera::Camera;
 use crate::core::cull::deb::DEPTH_MARGIN;
-use crate::core::native::span::{LANES, Span, SpanTriangle, span_triangles};
+use crate::core::hom::raster::{ScreenTriangle, screen_polygon};
+use crate::core::native::span::{LANES, Span, SpanTriangle};
 use crate::core::scene::Scene;
 
 /// Triangles whose pixel box is at least this large are first tested against the
@@ -49,17 +50,24 @@ fn push_unhidden(
     skip_hidden: bool,
     out: &mut Vec<SpanTriangle>,
 ) {
-    span_triangles(cam, tri, |t| {
+    // The loop of `span_triangles` written out: through its closure, this body was
+    // left out of line, compiled without the caller's AVX2.
+    for t in screen_polygon(cam, tri).fan() {
+        let Some(t) = ScreenTriangle::new(cam.width, cam.height, t) else {
+            continue;
+        };
+        let t = SpanTriangle::new(t);
         // A plane past f32's range would write NaN or infinite lanes; leaving the
         // triangle out leaves the map farther, never nearer (such slopes take f64
         // coordinates no triangle covering a pixel centre has).
         let hidden = !t.plane_is_bounded()
-            || skip_hidden && t.box_pixels() >= SKIP_TEST_MIN_PIXELS && map.triangle_hidden(t, 0.0);
+            || skip_hidden
+                && t.box_pixels() >= SKIP_TEST_MIN_PIXELS
+                && map.triangle_hidden(&t, 0.0);
         if !hidden {
-            out.push(*t);
+            out.push(t);
         }
-        true
-    });
+    }
 }
 
 /// The screen triangles of the front faces of occluders `ids` for drawing into `map`,

@@ -23,6 +23,7 @@ use glam::Vec3;
 
 mod draw;
 
+use super::descent::{self, Texel, TexelTest};
 use super::span::{SpanTriangle, padded_len};
 use crate::core::camera::{Camera, ScreenRect};
 use crate::core::scene::Scene;
@@ -38,6 +39,7 @@ const MIN_BEFORE_CHECKPOINT: usize = 8;
 
 /// Most levels of the tile pyramid (a 2^20-pixel side).
 const MAX_LEVELS: usize = 18;
+const _: () = assert!(MAX_LEVELS <= descent::MAX_DESCENT_LEVELS);
 
 /// One pose's occlusion map; reused from pose to pose to keep its memory.
 #[derive(Default)]
@@ -194,7 +196,7 @@ impl OcclusionMap {
     /// triangle; [`SpanTriangle::bounds`]) times `1 + margin` lies below every pixel
     /// of its box. Stale bounds of a map that has only grown nearer since are fine:
     /// they can only answer false more often.
-    #[inline]
+    #[inline(always)]
     pub fn triangle_hidden(&self, t: &SpanTriangle, margin: f64) -> bool {
         let (r, nearest) = t.bounds();
         self.rect_hidden(&r, (nearest * (1.0 + margin)) as f32)
@@ -205,51 +207,34 @@ impl OcclusionMap {
     /// occluders lie in front of depth `near` everywhere; `t = 0` whether they cover.
     #[inline(always)]
     pub fn rect_hidden(&self, r: &ScreenRect, t: f32) -> bool {
-        let (tx0, ty0) = (r.x0 / TILE, r.y0 / TILE);
-        let (tx1, ty1) = ((r.x1 - 1) / TILE, (r.y1 - 1) / TILE);
-        let mut k = 0;
-        while k + 1 < self.dims.len()
-            && ((tx1 >> k) - (tx0 >> k) > 1 || (ty1 >> k) - (ty0 >> k) > 1)
-        {
-            k += 1;
-        }
-        let mut stack = [(0u8, 0u32, 0u32); 4 + 3 * MAX_LEVELS];
-        let mut top = 0;
-        for y in (ty0 >> k)..=(ty1 >> k) {
-            for x in (tx0 >> k)..=(tx1 >> k) {
-                stack[top] = (k as u8, x, y);
-                top += 1;
-            }
-        }
-        while top > 0 {
-            top -= 1;
-            let (l, x, y) = stack[top];
-            let l = l as usize;
-            let i = self.offsets[l] + (y * self.dims[l].0 + x) as usize;
-            if self.far[i] > t {
-                continue; // every pixel under the texel hides
-            }
-            if self.near[i] <= t {
-                return false; // none does, and the texel overlaps the rect
-            }
-            if l == 0 {
-                if !self.pixels_hidden(r, x, y, t) {
-                    return false;
-                }
-                continue;
-            }
-            let c = l - 1;
-            for cy in (2 * y).max(ty0 >> c)..=(2 * y + 1).min(ty1 >> c) {
-                for cx in (2 * x).max(tx0 >> c)..=(2 * x + 1).min(tx1 >> c) {
-                    stack[top] = (c as u8, cx, cy);
-                    top += 1;
+        let tiles = (
+            r.x0 / TILE,
+            r.y0 / TILE,
+            (r.x1 - 1) / TILE,
+            (r.y1 - 1) / TILE,
+        );
+        descent::rect_hidden(tiles, self.dims.len(), RectTest { map: self, r, t })
+    }
+
+    /// [`OcclusionMap::rect_hidden`]'s answer for texel `(x, y)` of level `l`: from its
+    /// bounds, and at the tiles those leave in doubt from their pixels.
+    #[inline(always)]
+    fn texel(&self, r: &ScreenRect, t: f32, l: usize, x: u32, y: u32) -> Texel {
+        let i = self.offsets[l] + (y * self.dims[l].0 + x) as usize;
+        match descent::by_bounds(self.far[i], self.near[i], t) {
+            Texel::Split if l == 0 => {
+                if self.pixels_hidden(r, x, y, t) {
+                    Texel::Hidden
+                } else {
+                    Texel::Visible
                 }
             }
+            answer => answer,
         }
-        true
     }
 
     /// Whether every pixel of `r` inside tile `(tx, ty)` holds a `1/w` above `t`.
+    #[inline(always)]
     fn pixels_hidden(&self, r: &ScreenRect, tx: u32, ty: u32, t: f32) -> bool {
         let x0 = r.x0.max(tx * TILE) as usize;
         let x1 = r.x1.min((tx + 1) * TILE) as usize;
@@ -260,6 +245,20 @@ impl OcclusionMap {
             let row = &self.inv_w[y as usize * w..][x0..x1];
             row.iter().fold(true, |all, &v| all & (v > t))
         })
+    }
+}
+
+/// [`OcclusionMap::rect_hidden`]'s question: every pixel of `r` above `t`.
+struct RectTest<'a> {
+    map: &'a OcclusionMap,
+    r: &'a ScreenRect,
+    t: f32,
+}
+
+impl TexelTest for RectTest<'_> {
+    #[inline(always)]
+    fn texel(&mut self, l: usize, x: u32, y: u32) -> Texel {
+        self.map.texel(self.r, self.t, l, x, y)
     }
 }
 

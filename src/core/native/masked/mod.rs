@@ -50,6 +50,7 @@
 mod draw;
 mod exact;
 
+use super::descent::{self, Texel, TexelTest};
 use super::span::SpanTriangle;
 use crate::core::camera::{Camera, ScreenRect};
 use crate::core::scene::Scene;
@@ -80,6 +81,7 @@ const SKIP_TEST_MIN_PIXELS: u32 = 16;
 
 /// Most levels of the pyramid over the tiles.
 const MAX_LEVELS: usize = 18;
+const _: () = assert!(MAX_LEVELS <= descent::MAX_DESCENT_LEVELS);
 
 /// One tile's coverage and bounds (see the module docs), kept per row of the tile: row
 /// `r` is a 32×1 strip with its own mask and bounds (the depth is as fine as a row,
@@ -276,47 +278,28 @@ impl MaskedMap {
     /// older (module docs: that only makes it descend to the tiles more often).
     #[inline(always)]
     pub fn rect_hidden(&self, r: &ScreenRect, t: f32) -> bool {
-        let (tx0, ty0) = (r.x0 / TILE_W, r.y0 / TILE_H);
-        let (tx1, ty1) = ((r.x1 - 1) / TILE_W, (r.y1 - 1) / TILE_H);
-        // Level k (0 = tiles): its texels cover 2^k × 2^k tiles.
-        let mut k = 0;
-        while k < self.dims.len() && ((tx1 >> k) - (tx0 >> k) > 1 || (ty1 >> k) - (ty0 >> k) > 1) {
-            k += 1;
+        let tiles = (
+            r.x0 / TILE_W,
+            r.y0 / TILE_H,
+            (r.x1 - 1) / TILE_W,
+            (r.y1 - 1) / TILE_H,
+        );
+        // Level 0 is the tiles themselves, level l > 0 the pyramid's level l - 1.
+        descent::rect_hidden(tiles, self.dims.len() + 1, RectTest { map: self, r, t })
+    }
+
+    /// [`MaskedMap::rect_hidden`]'s answer for texel `(x, y)` of level `l`.
+    #[inline(always)]
+    fn texel(&self, r: &ScreenRect, t: f32, l: usize, x: u32, y: u32) -> Texel {
+        if l == 0 {
+            return if self.tile_hidden(r, x, y, t) {
+                Texel::Hidden
+            } else {
+                Texel::Visible
+            };
         }
-        let mut stack = [(0u8, 0u32, 0u32); 4 + 3 * MAX_LEVELS];
-        let mut top = 0;
-        for y in (ty0 >> k)..=(ty1 >> k) {
-            for x in (tx0 >> k)..=(tx1 >> k) {
-                stack[top] = (k as u8, x, y);
-                top += 1;
-            }
-        }
-        while top > 0 {
-            top -= 1;
-            let (l, x, y) = stack[top];
-            let l = l as usize;
-            if l == 0 {
-                if !self.tile_hidden(r, x, y, t) {
-                    return false;
-                }
-                continue;
-            }
-            let i = self.offsets[l - 1] + (y * self.dims[l - 1].0 + x) as usize;
-            if self.far[i] > t {
-                continue; // every pixel under the texel hides
-            }
-            if self.near[i] <= t {
-                return false; // none does, and the texel overlaps the rect
-            }
-            let c = l - 1;
-            for cy in (2 * y).max(ty0 >> c)..=(2 * y + 1).min(ty1 >> c) {
-                for cx in (2 * x).max(tx0 >> c)..=(2 * x + 1).min(tx1 >> c) {
-                    stack[top] = (c as u8, cx, cy);
-                    top += 1;
-                }
-            }
-        }
-        true
+        let i = self.offsets[l - 1] + (y * self.dims[l - 1].0 + x) as usize;
+        descent::by_bounds(self.far[i], self.near[i], t)
     }
 
     /// Whether every pixel of `r` in tile `(tx, ty)` holds a bound above `t`.
@@ -400,6 +383,20 @@ impl MaskedMap {
         let (tx, ty) = (x / TILE_W, y / TILE_H);
         let px = self.exact.tile(&self.tris, self.tiles_x, tx, ty);
         px[(y % TILE_H * TILE_W + x % TILE_W) as usize]
+    }
+}
+
+/// [`MaskedMap::rect_hidden`]'s question: every pixel of `r` above `t`.
+struct RectTest<'a> {
+    map: &'a MaskedMap,
+    r: &'a ScreenRect,
+    t: f32,
+}
+
+impl TexelTest for RectTest<'_> {
+    #[inline(always)]
+    fn texel(&mut self, l: usize, x: u32, y: u32) -> Texel {
+        self.map.texel(self.r, self.t, l, x, y)
     }
 }
 
