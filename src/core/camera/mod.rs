@@ -264,9 +264,9 @@ impl Camera {
     #[inline(always)]
     fn project_box_in_front(&self, b: &Aabb) -> Option<Option<ScreenRect>> {
         let m = &self.view;
-        // Corner i takes max along x, y, z where bit 0, 1, 2 of i is set: spelled
-        // out as whole lanes (a select per lane and axis inside the loop kept it on
-        // 4-wide registers with scalar work between).
+        // Corner i takes max along x, y, z where bit 0, 1, 2 of i is set. (Either
+        // way it is spelled, LLVM sees each product take two values and keeps most
+        // of this scalar: 8-wide lanes need explicit SIMD.)
         let (lo, hi) = (b.min, b.max);
         let cx = [lo.x, hi.x, lo.x, hi.x, lo.x, hi.x, lo.x, hi.x];
         let cy = [lo.y, lo.y, hi.y, hi.y, lo.y, lo.y, hi.y, hi.y];
