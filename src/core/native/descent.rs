@@ -9,7 +9,7 @@
 //! is 232 bytes whose zeroing is a few vector stores; as `(u8, u32, u32)` tuples it was
 //! 700 bytes zeroed byte by byte, a sixth of a box test.
 
-use crate::core::camera::MAX_VIEWPORT_SIDE;
+use crate::core::camera::{MAX_VIEWPORT_SIDE, ScreenRect};
 
 /// What a map answers for one texel of the descent.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -22,20 +22,14 @@ pub enum Texel {
     Split,
 }
 
-/// A map's answer per texel ([`rect_hidden`]). A trait rather than a closure: its
-/// method is inlined wherever the descent is, so that it runs at the caller's SIMD
-/// level (a closure was left out of line, compiled for the baseline CPU).
+/// A map's answer per texel for a rect ([`rect_hidden`]), implemented by each map. A
+/// trait rather than a closure: its method is inlined wherever the descent is, so that
+/// it runs at the caller's SIMD level (a closure was left out of line, compiled for
+/// the baseline CPU).
 pub trait TexelTest {
-    /// The answer for texel `(x, y)` of level `l`.
-    fn texel(&mut self, l: usize, x: u32, y: u32) -> Texel;
-}
-
-/// Closures answer too (the tests').
-impl<F: FnMut(usize, u32, u32) -> Texel> TexelTest for F {
-    #[inline(always)]
-    fn texel(&mut self, l: usize, x: u32, y: u32) -> Texel {
-        self(l, x, y)
-    }
+    /// The answer for texel `(x, y)` of level `l`: whether every pixel of `r` under it
+    /// holds a `1/w` above `t`.
+    fn texel(&self, r: &ScreenRect, t: f32, l: usize, x: u32, y: u32) -> Texel;
 }
 
 /// Most levels a descent may have (a map's finest level and the quadtree over it).
@@ -61,15 +55,17 @@ fn unpack(v: u32) -> (usize, u32, u32) {
     )
 }
 
-/// Whether every texel of the rect whose finest texels are `(tx0, ty0)..=(tx1, ty1)`
-/// is hidden by `texel.texel(level, x, y)`, over `levels` levels (0 the finest; texel
+/// Whether `map` hides `r` below `t` (every pixel above it), where `r`'s finest
+/// texels are `(tx0, ty0)..=(tx1, ty1)`, over `levels` levels (0 the finest; texel
 /// `(x, y)` of level `l` covers finest texels `x << l ..` and `y << l ..`). Stops at
 /// the first texel answered [`Texel::Visible`].
 #[inline(always)]
 pub fn rect_hidden(
+    map: &impl TexelTest,
+    r: &ScreenRect,
+    t: f32,
     (tx0, ty0, tx1, ty1): (u32, u32, u32, u32),
     levels: usize,
-    mut texel: impl TexelTest,
 ) -> bool {
     debug_assert!(levels <= MAX_DESCENT_LEVELS && tx1 <= COORD_MASK && ty1 <= COORD_MASK);
     let mut k = 0;
@@ -87,7 +83,7 @@ pub fn rect_hidden(
     while top > 0 {
         top -= 1;
         let (l, x, y) = unpack(stack[top]);
-        match texel.texel(l, x, y) {
+        match map.texel(r, t, l, x, y) {
             Texel::Hidden => continue,
             Texel::Visible => return false,
             Texel::Split => {}
@@ -134,39 +130,59 @@ mod tests {
         }
     }
 
-    /// A one-level map of `w`×`h` texels, hidden where `hidden` says: the descent
-    /// answers whether all the rect's texels are.
+    /// Finest texels hidden but for some holes, every coarser texel split: records
+    /// which finest texels the descent asks about.
+    struct Holes {
+        holes: [(u32, u32); 2],
+        seen: std::cell::RefCell<Vec<(u32, u32)>>,
+    }
+
+    impl TexelTest for Holes {
+        fn texel(&self, _: &ScreenRect, _: f32, l: usize, x: u32, y: u32) -> Texel {
+            if l > 0 {
+                return Texel::Split;
+            }
+            self.seen.borrow_mut().push((x, y));
+            if self.holes.contains(&(x, y)) {
+                Texel::Visible
+            } else {
+                Texel::Hidden
+            }
+        }
+    }
+
+    /// The descent answers whether all the rect's finest texels are hidden, and when
+    /// they are it has asked about each of them once.
     #[test]
     fn descent_reaches_every_finest_texel_of_the_rect() {
-        // Levels over a 10×7 grid of finest texels; a texel of level l is hidden iff
-        // all finest texels under it (inside the grid) are, and split otherwise.
         let (w, h) = (10u32, 7u32);
-        let holes = [(3u32, 4u32), (9, 0)];
-        let finest_hidden = |x: u32, y: u32| !holes.contains(&(x, y));
+        let map = Holes {
+            holes: [(3, 4), (9, 0)],
+            seen: Default::default(),
+        };
+        let r = ScreenRect {
+            x0: 0,
+            y0: 0,
+            x1: 1,
+            y1: 1,
+            near: 1.0,
+            far: 1.0,
+        };
         let levels = 5;
         for tx0 in 0..w {
             for tx1 in tx0..w {
                 for ty0 in 0..h {
                     for ty1 in ty0..h {
-                        let mut seen = Vec::new();
-                        let got = rect_hidden((tx0, ty0, tx1, ty1), levels, |l, x, y| {
-                            if l == 0 {
-                                seen.push((x, y));
-                                return if finest_hidden(x, y) {
-                                    Texel::Hidden
-                                } else {
-                                    Texel::Visible
-                                };
-                            }
-                            Texel::Split
-                        });
-                        let want = (tx0..=tx1).all(|x| (ty0..=ty1).all(|y| finest_hidden(x, y)));
+                        map.seen.borrow_mut().clear();
+                        let got = rect_hidden(&map, &r, 0.0, (tx0, ty0, tx1, ty1), levels);
+                        let all: Vec<_> = (tx0..=tx1)
+                            .flat_map(|x| (ty0..=ty1).map(move |y| (x, y)))
+                            .collect();
+                        let want = all.iter().all(|c| !map.holes.contains(c));
                         assert_eq!(got, want, "rect {tx0},{ty0}..{tx1},{ty1}");
                         if want {
+                            let mut seen = map.seen.borrow().clone();
                             seen.sort();
-                            let all: Vec<_> = (tx0..=tx1)
-                                .flat_map(|x| (ty0..=ty1).map(move |y| (x, y)))
-                                .collect();
                             assert_eq!(seen, all, "each finest texel once");
                         }
                     }

@@ -213,24 +213,7 @@ impl OcclusionMap {
             (r.x1 - 1) / TILE,
             (r.y1 - 1) / TILE,
         );
-        descent::rect_hidden(tiles, self.dims.len(), RectTest { map: self, r, t })
-    }
-
-    /// [`OcclusionMap::rect_hidden`]'s answer for texel `(x, y)` of level `l`: from its
-    /// bounds, and at the tiles those leave in doubt from their pixels.
-    #[inline(always)]
-    fn texel(&self, r: &ScreenRect, t: f32, l: usize, x: u32, y: u32) -> Texel {
-        let i = self.offsets[l] + (y * self.dims[l].0 + x) as usize;
-        match descent::by_bounds(self.far[i], self.near[i], t) {
-            Texel::Split if l == 0 => {
-                if self.pixels_hidden(r, x, y, t) {
-                    Texel::Hidden
-                } else {
-                    Texel::Visible
-                }
-            }
-            answer => answer,
-        }
+        descent::rect_hidden(self, r, t, tiles, self.dims.len())
     }
 
     /// Whether every pixel of `r` inside tile `(tx, ty)` holds a `1/w` above `t`.
@@ -248,17 +231,22 @@ impl OcclusionMap {
     }
 }
 
-/// [`OcclusionMap::rect_hidden`]'s question: every pixel of `r` above `t`.
-struct RectTest<'a> {
-    map: &'a OcclusionMap,
-    r: &'a ScreenRect,
-    t: f32,
-}
-
-impl TexelTest for RectTest<'_> {
+impl TexelTest for OcclusionMap {
+    /// [`OcclusionMap::rect_hidden`]'s answer for texel `(x, y)` of level `l`: from its
+    /// bounds, and at the tiles those leave in doubt from their pixels.
     #[inline(always)]
-    fn texel(&mut self, l: usize, x: u32, y: u32) -> Texel {
-        self.map.texel(self.r, self.t, l, x, y)
+    fn texel(&self, r: &ScreenRect, t: f32, l: usize, x: u32, y: u32) -> Texel {
+        let i = self.offsets[l] + (y * self.dims[l].0 + x) as usize;
+        match descent::by_bounds(self.far[i], self.near[i], t) {
+            Texel::Split if l == 0 => {
+                if self.pixels_hidden(r, x, y, t) {
+                    Texel::Hidden
+                } else {
+                    Texel::Visible
+                }
+            }
+            answer => answer,
+        }
     }
 }
 

@@ -285,21 +285,7 @@ impl MaskedMap {
             (r.y1 - 1) / TILE_H,
         );
         // Level 0 is the tiles themselves, level l > 0 the pyramid's level l - 1.
-        descent::rect_hidden(tiles, self.dims.len() + 1, RectTest { map: self, r, t })
-    }
-
-    /// [`MaskedMap::rect_hidden`]'s answer for texel `(x, y)` of level `l`.
-    #[inline(always)]
-    fn texel(&self, r: &ScreenRect, t: f32, l: usize, x: u32, y: u32) -> Texel {
-        if l == 0 {
-            return if self.tile_hidden(r, x, y, t) {
-                Texel::Hidden
-            } else {
-                Texel::Visible
-            };
-        }
-        let i = self.offsets[l - 1] + (y * self.dims[l - 1].0 + x) as usize;
-        descent::by_bounds(self.far[i], self.near[i], t)
+        descent::rect_hidden(self, r, t, tiles, self.dims.len() + 1)
     }
 
     /// Whether every pixel of `r` in tile `(tx, ty)` holds a bound above `t`.
@@ -386,17 +372,19 @@ impl MaskedMap {
     }
 }
 
-/// [`MaskedMap::rect_hidden`]'s question: every pixel of `r` above `t`.
-struct RectTest<'a> {
-    map: &'a MaskedMap,
-    r: &'a ScreenRect,
-    t: f32,
-}
-
-impl TexelTest for RectTest<'_> {
+impl TexelTest for MaskedMap {
+    /// [`MaskedMap::rect_hidden`]'s answer for texel `(x, y)` of level `l`.
     #[inline(always)]
-    fn texel(&mut self, l: usize, x: u32, y: u32) -> Texel {
-        self.map.texel(self.r, self.t, l, x, y)
+    fn texel(&self, r: &ScreenRect, t: f32, l: usize, x: u32, y: u32) -> Texel {
+        if l == 0 {
+            return if self.tile_hidden(r, x, y, t) {
+                Texel::Hidden
+            } else {
+                Texel::Visible
+            };
+        }
+        let i = self.offsets[l - 1] + (y * self.dims[l - 1].0 + x) as usize;
+        descent::by_bounds(self.far[i], self.near[i], t)
     }
 }
 
