@@ -264,18 +264,16 @@ impl Camera {
     #[inline(always)]
     fn project_box_in_front(&self, b: &Aabb) -> Option<Option<ScreenRect>> {
         let m = &self.view;
-        // Corner i takes max along x, y, z where bit 0, 1, 2 of i is set. (Either
-        // way it is spelled, LLVM sees each product take two values and keeps most
-        // of this scalar: 8-wide lanes need explicit SIMD.)
-        let (lo, hi) = (b.min, b.max);
-        let cx = [lo.x, hi.x, lo.x, hi.x, lo.x, hi.x, lo.x, hi.x];
-        let cy = [lo.y, lo.y, hi.y, hi.y, lo.y, lo.y, hi.y, hi.y];
-        let cz = [lo.z, lo.z, lo.z, lo.z, hi.z, hi.z, hi.z, hi.z];
+        // (LLVM sees each product below take two values and keeps most of this
+        // scalar, however the corners are spelled: 8-wide lanes need explicit SIMD.)
         let (mut x, mut y, mut d) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
         for i in 0..8 {
-            x[i] = m.x_axis.x * cx[i] + m.y_axis.x * cy[i] + m.z_axis.x * cz[i] + m.w_axis.x;
-            y[i] = m.x_axis.y * cx[i] + m.y_axis.y * cy[i] + m.z_axis.y * cz[i] + m.w_axis.y;
-            d[i] = -(m.x_axis.z * cx[i] + m.y_axis.z * cy[i] + m.z_axis.z * cz[i] + m.w_axis.z);
+            let cx = if i & 1 == 0 { b.min.x } else { b.max.x };
+            let cy = if i & 2 == 0 { b.min.y } else { b.max.y };
+            let cz = if i & 4 == 0 { b.min.z } else { b.max.z };
+            x[i] = m.x_axis.x * cx + m.y_axis.x * cy + m.z_axis.x * cz + m.w_axis.x;
+            y[i] = m.x_axis.y * cx + m.y_axis.y * cy + m.z_axis.y * cz + m.w_axis.y;
+            d[i] = -(m.x_axis.z * cx + m.y_axis.z * cy + m.z_axis.z * cz + m.w_axis.z);
         }
         if d.iter().fold(false, |nan, v| nan | v.is_nan()) {
             return None; // a corner is not a number: the general path
