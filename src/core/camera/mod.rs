@@ -21,6 +21,8 @@ use homcull_proto::Pose;
 
 use crate::core::geom::{Aabb, Plane};
 
+#[cfg(target_arch = "x86_64")]
+mod avx;
 pub mod stereo;
 
 /// Largest accepted viewport side in pixels.

@@ -37,6 +37,12 @@ fn the_side_by_side_projection_equals_the_corner_by_corner_one() {
             rng.random_range(0.0..1.0),
         ) * scale;
         let b = Aabb::new(c - e, c + e);
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx") {
+            // SAFETY: AVX was detected on this CPU just above.
+            let lanes = unsafe { cam.project_box_avx(&b) };
+            assert_eq!(lanes, cam.project_box(&b), "AVX lanes: {b:?} from {eye}");
+        }
         match cam.project_box_in_front(&b) {
             Some(r) => {
                 assert_eq!(r, cam.project_box_clipped(&b), "{b:?} from {eye}");

@@ -7,6 +7,7 @@ use super::prepared::PreparedScene;
 use super::settings::CullSettings;
 use crate::core::camera::{Camera, ScreenRect};
 use crate::core::cull::deb::DepthEstimationBuffer;
+use crate::core::geom::Aabb;
 use crate::core::occluders::OccluderSelection;
 use crate::core::scene::Scene;
 
@@ -27,14 +28,26 @@ impl PosePlan {
     /// near plane shows nothing; an object's remaining boxes are skipped once one is
     /// visible). Every backend's box test is this loop with its own `hidden`.
     #[inline]
-    pub fn box_test(&self, scene: &Scene, mut hidden: impl FnMut(&ScreenRect) -> bool) -> Vec<u32> {
+    pub fn box_test(&self, scene: &Scene, hidden: impl FnMut(&ScreenRect) -> bool) -> Vec<u32> {
+        self.box_test_projecting(scene, |b| self.cam.project_box(b), hidden)
+    }
+
+    /// [`PosePlan::box_test`] with the projection given: `project` must answer as
+    /// [`Camera::project_box`] does (a SIMD twin of it, chosen by the caller's CPU).
+    #[inline(always)]
+    pub fn box_test_projecting(
+        &self,
+        scene: &Scene,
+        mut project: impl FnMut(&Aabb) -> Option<ScreenRect>,
+        mut hidden: impl FnMut(&ScreenRect) -> bool,
+    ) -> Vec<u32> {
         let mut mask = empty_mask(scene.objects.len());
         for &b in &self.test_boxes {
             let tb = &scene.boxes[b as usize];
             if has_bit(&mask, tb.object) {
                 continue; // another sub-bound of this object is already visible
             }
-            let Some(r) = self.cam.project_box(&tb.aabb) else {
+            let Some(r) = project(&tb.aabb) else {
                 continue;
             };
             if !hidden(&r) {

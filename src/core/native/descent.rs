@@ -68,10 +68,9 @@ pub fn rect_hidden(
     levels: usize,
 ) -> bool {
     debug_assert!(levels <= MAX_DESCENT_LEVELS && tx1 <= COORD_MASK && ty1 <= COORD_MASK);
-    let mut k = 0;
-    while k + 1 < levels && ((tx1 >> k) - (tx0 >> k) > 1 || (ty1 >> k) - (ty0 >> k) > 1) {
-        k += 1;
-    }
+    let k = start_level(tx0, tx1)
+        .max(start_level(ty0, ty1))
+        .min(levels.saturating_sub(1));
     let mut stack = [0u32; 4 + 3 * MAX_DESCENT_LEVELS];
     let mut top = 0;
     for y in (ty0 >> k)..=(ty1 >> k) {
@@ -100,6 +99,16 @@ pub fn rect_hidden(
     true
 }
 
+/// The finest level `k` at which finest texels `t0..=t1` (along one axis) span at most
+/// two texels: `(t1 >> k) − (t0 >> k) ≤ 1`. Their distance `d` is below `2^(b+1)` for
+/// its bit length `b + 1`, so level `b + 1` always does and level `b` may: one test
+/// instead of a loop over the levels (a tenth of a box test as a loop).
+#[inline(always)]
+fn start_level(t0: u32, t1: u32) -> usize {
+    let b = (u32::BITS - (t1 - t0).leading_zeros()).saturating_sub(1);
+    (b + u32::from((t1 >> b) - (t0 >> b) > 1)) as usize
+}
+
 /// The answer of a texel from its bounds on `1/w` under it, for a rect hidden where
 /// every pixel holds more than `t`.
 #[inline(always)]
@@ -116,6 +125,18 @@ pub fn by_bounds(far: f32, near: f32, t: f32) -> Texel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_start_level_is_the_finest_spanning_at_most_two_texels() {
+        for t0 in 0..300u32 {
+            for t1 in t0..t0 + 600 {
+                let finest = (0..).find(|&k| (t1 >> k) - (t0 >> k) <= 1).unwrap();
+                assert_eq!(start_level(t0, t1), finest, "{t0}..={t1}");
+            }
+        }
+        let m = MAX_VIEWPORT_SIDE - 1;
+        assert_eq!(start_level(0, m), 12);
+    }
 
     #[test]
     fn packing_round_trips_the_largest_coordinates() {

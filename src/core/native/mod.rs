@@ -53,6 +53,7 @@ use std::cell::RefCell;
 use homcull_proto::{DebVariant, Method};
 use rayon::prelude::*;
 
+use crate::core::camera::ScreenRect;
 use crate::core::cull::deb::DEPTH_MARGIN;
 use crate::core::cull::{
     CullError, CullSettings, Culler, PosePlan, PreparedScene, clear_bit, has_bit,
@@ -229,13 +230,17 @@ fn refine_survivors(
 /// corners then divide in one instruction.
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn box_test(map: &OcclusionMap, prep: &PreparedScene, p: &PosePlan, raster: bool) -> Vec<u32> {
-    p.box_test(&prep.scene, |r| {
+    let hidden = |r: &ScreenRect| {
         if raster {
             map.rect_hidden(r, (1.0 + DEPTH_MARGIN) / r.near)
         } else {
             p.deb.all_in_front(r, r.near) && map.rect_hidden(r, 0.0)
         }
-    })
+    };
+    multiversion::target::match_target! {
+        "x86_64+avx2+fma" => p.box_test_projecting(&prep.scene, |b| p.cam.project_box_avx(b), hidden),
+        _ => p.box_test(&prep.scene, hidden),
+    }
 }
 
 /// The box test on the masked map (threshold 1, raster DEB), compiled per SIMD level.
