@@ -17,6 +17,12 @@ use crate::core::geom::Aabb;
 impl Camera {
     /// [`Camera::project_box`], the same rect, with the corners side by side in AVX
     /// lanes where the box lies wholly in front of the near plane.
+    ///
+    /// # Safety
+    ///
+    /// The CPU must have AVX. It is a safe call from code compiled with AVX enabled
+    /// (a multiversioned function's AVX2 clone); elsewhere, check
+    /// `is_x86_feature_detected!("avx")` first.
     #[target_feature(enable = "avx")]
     #[inline]
     pub fn project_box_avx(&self, b: &Aabb) -> Option<ScreenRect> {
