@@ -30,6 +30,14 @@ pub trait TexelTest {
     /// The answer for texel `(x, y)` of level `l`: whether every pixel of `r` under it
     /// holds a `1/w` above `t`.
     fn texel(&self, r: &ScreenRect, t: f32, l: usize, x: u32, y: u32) -> Texel;
+
+    /// Whether the bounds alone hide every texel `x0..=x1 × y0..=y1` of level `l` (at
+    /// most 2×2): one branch for the common case of a block hidden whole, before its
+    /// texels are visited one by one. `false` whenever unsure (the default).
+    #[inline(always)]
+    fn block_hidden(&self, _t: f32, _l: usize, _block: (u32, u32, u32, u32)) -> bool {
+        false
+    }
 }
 
 /// Most levels a descent may have (a map's finest level and the quadtree over it).
@@ -71,10 +79,14 @@ pub fn rect_hidden(
     let k = start_level(tx0, tx1)
         .max(start_level(ty0, ty1))
         .min(levels.saturating_sub(1));
+    let start = (tx0 >> k, ty0 >> k, tx1 >> k, ty1 >> k);
+    if map.block_hidden(t, k, start) {
+        return true;
+    }
     let mut stack = [0u32; 4 + 3 * MAX_DESCENT_LEVELS];
     let mut top = 0;
-    for y in (ty0 >> k)..=(ty1 >> k) {
-        for x in (tx0 >> k)..=(tx1 >> k) {
+    for y in start.1..=start.3 {
+        for x in start.0..=start.2 {
             stack[top] = pack(k, x, y);
             top += 1;
         }
@@ -89,8 +101,17 @@ pub fn rect_hidden(
         }
         debug_assert!(l > 0, "the finest level settles every texel");
         let c = l - 1;
-        for cy in (2 * y).max(ty0 >> c)..=(2 * y + 1).min(ty1 >> c) {
-            for cx in (2 * x).max(tx0 >> c)..=(2 * x + 1).min(tx1 >> c) {
+        let children = (
+            (2 * x).max(tx0 >> c),
+            (2 * y).max(ty0 >> c),
+            (2 * x + 1).min(tx1 >> c),
+            (2 * y + 1).min(ty1 >> c),
+        );
+        if map.block_hidden(t, c, children) {
+            continue;
+        }
+        for cy in children.1..=children.3 {
+            for cx in children.0..=children.2 {
                 stack[top] = pack(c, cx, cy);
                 top += 1;
             }

@@ -248,6 +248,15 @@ impl TexelTest for OcclusionMap {
             answer => answer,
         }
     }
+
+    /// The far bounds of the (at most 2×2) block, all above `t`: four loads and one
+    /// branch (the corners repeat where the block is one texel wide or high).
+    #[inline(always)]
+    fn block_hidden(&self, t: f32, l: usize, (x0, y0, x1, y1): (u32, u32, u32, u32)) -> bool {
+        let w = self.dims[l].0;
+        let at = |x: u32, y: u32| self.far[self.offsets[l] + (y * w + x) as usize];
+        (at(x0, y0) > t) & (at(x1, y0) > t) & (at(x0, y1) > t) & (at(x1, y1) > t)
+    }
 }
 
 /// Whether a triangle faces the eye (counter-clockwise seen from it, glTF's front).
