@@ -226,8 +226,8 @@ fn refine_survivors(
     }
 }
 
-/// [`NativeBackend::test_boxes`], compiled per SIMD level: the box projection's eight
-/// corners then divide in one instruction.
+/// [`NativeBackend::test_boxes`], compiled per SIMD level; its AVX2 clone projects the
+/// boxes in AVX lanes ([`crate::core::camera::Camera::project_box_avx`]: the same rects).
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn box_test(map: &OcclusionMap, prep: &PreparedScene, p: &PosePlan, raster: bool) -> Vec<u32> {
     let hidden = |r: &ScreenRect| {
@@ -246,9 +246,11 @@ fn box_test(map: &OcclusionMap, prep: &PreparedScene, p: &PosePlan, raster: bool
 /// The box test on the masked map (threshold 1, raster DEB), compiled per SIMD level.
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn masked_box_test(map: &MaskedMap, prep: &PreparedScene, p: &PosePlan) -> Vec<u32> {
-    p.box_test(&prep.scene, |r| {
-        map.rect_hidden(r, (1.0 + DEPTH_MARGIN) / r.near)
-    })
+    let hidden = |r: &ScreenRect| map.rect_hidden(r, (1.0 + DEPTH_MARGIN) / r.near);
+    multiversion::target::match_target! {
+        "x86_64+avx2+fma" => p.box_test_projecting(&prep.scene, |b| p.cam.project_box_avx(b), hidden),
+        _ => p.box_test(&prep.scene, hidden),
+    }
 }
 
 impl Culler for NativeBackend {

@@ -8,6 +8,7 @@ use glam::Vec3;
 use super::{OcclusionMap, TILE, bound_tile_rows, front_facing};
 use crate::core::camera::Camera;
 use crate::core::cull::deb::DEPTH_MARGIN;
+use crate::core::geom::Aabb;
 use crate::core::hom::raster::{ScreenTriangle, screen_polygon};
 use crate::core::native::span::{LANES, Span, SpanTriangle};
 use crate::core::scene::Scene;
@@ -87,12 +88,17 @@ pub(super) fn setup_occluders(
     let eye = cam.position;
     let p = &scene.positions;
     let mut skipped = 0;
+    // The box projection in AVX lanes where this clone runs with AVX (the same rect).
+    let project = |b: &Aabb| {
+        multiversion::target::match_target! {
+            "x86_64+avx2+fma" => cam.project_box_avx(b),
+            _ => cam.project_box(b),
+        }
+    };
     for &id in ids {
         let o = &scene.objects[id as usize];
         if skip_hidden
-            && cam
-                .project_box(&o.aabb)
-                .is_none_or(|r| map.rect_hidden(&r, (1.0 + DEPTH_MARGIN) / r.near))
+            && project(&o.aabb).is_none_or(|r| map.rect_hidden(&r, (1.0 + DEPTH_MARGIN) / r.near))
         {
             skipped += 1;
             continue;
