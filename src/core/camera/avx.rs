@@ -5,7 +5,9 @@
 //!
 //! The same operations as the array path in the same order (glam's `Mat4 * Vec4` sums
 //! the columns in order; no fused multiply-add, which would round differently), so
-//! the rects are equal bit for bit: `camera/tests.rs` checks it on random boxes.
+//! the rects are equal bit for bit wherever no corner coordinate is a NaN (only
+//! boxes near f32's range make one; this path then takes the clipped one):
+//! `camera/tests.rs` checks it on random boxes.
 //! Callers reach it from code compiled for AVX (a multiversioned function's AVX2
 //! clone) and keep [`Camera::project_box`] for every other CPU.
 
@@ -67,8 +69,8 @@ impl Camera {
         let sx = _mm256_mul_ps(sx, _mm256_set1_ps(w));
         let sy = _mm256_mul_ps(_mm256_div_ps(_mm256_mul_ps(y, s1), d), half);
         let sy = _mm256_mul_ps(_mm256_sub_ps(half, sy), _mm256_set1_ps(h));
-        if any_nan(_mm256_or_ps(sx, sy)) {
-            return None; // a corner's x or y overflowed: the general path decides
+        if any_nan(_mm256_cmp_ps::<_CMP_UNORD_Q>(sx, sy)) {
+            return None; // inf − inf or 0·inf in a corner's x or y: the general path
         }
         Some(rect_from_bounds(
             sx,
@@ -144,7 +146,7 @@ fn affine([a, b, c, w]: [f32; 4], cx: __m256, cy: __m256, cz: __m256) -> __m256 
     _mm256_add_ps(v, _mm256_set1_ps(w))
 }
 
-/// Whether any lane is a NaN (or any bit pattern of an OR of lanes that holds one).
+/// Whether any lane is a NaN, or (after an unordered compare) has all bits set.
 #[target_feature(enable = "avx")]
 #[inline]
 fn any_nan(v: __m256) -> bool {

@@ -12,7 +12,8 @@
 //!   point of the box projects to lies in its rect.
 //!
 //! The WGSL twin of [`Camera::project_box`] is `project_box` in
-//! `gpu/shaders/common.wgsl`; they must stay the same algorithm.
+//! `gpu/shaders/common.wgsl`; they must stay the same algorithm. Its AVX twin,
+//! `avx.rs`, must stay the same operations as `project_box_in_front`.
 
 use std::sync::Arc;
 

@@ -35,7 +35,7 @@ impl PosePlan {
     /// [`PosePlan::box_test`] with the projection given: `project` must answer as
     /// [`Camera::project_box`] does (a SIMD twin of it, chosen by the caller's CPU).
     #[inline(always)]
-    pub fn box_test_projecting(
+    pub(crate) fn box_test_projecting(
         &self,
         scene: &Scene,
         mut project: impl FnMut(&Aabb) -> Option<ScreenRect>,
