@@ -1,6 +1,6 @@
 //! The native CPU backend, pass by pass, on the shared real scenes (divan; one thread).
 //! Run: `cargo bench --bench native`. Scenes come from `HOMCULL_SCENES` (default
-//! `../shared/scenes`); 32 sampled street-level poses per scene at 960×540, the poses
+//! `../shared/scenes`) and the built-in demo city (`demo`); 32 sampled street-level poses per scene at 960×540, the poses
 //! `homcull eval --random 32` would use (seed 1).
 //!
 //! - `plan`: frustum query, test boxes, occluder selection (shared with every backend).
@@ -27,10 +27,12 @@ use homcull::core::native::map::OcclusionMap;
 use homcull::core::native::masked::MaskedMap;
 use homcull::core::occluders::OccluderParams;
 use homcull::core::sampler::PoseSampler;
-use homcull::core::scene::load_path;
+use homcull::core::scene::{demo_city, load_path};
 use homcull_proto::{CullOptions, Method, Pose, Stereo};
 
-const SCENES: &[&str] = &["munich", "etoile", "oa_shouse", "oa_dm1"];
+/// The shared scenes MOC was measured on, and the built-in demo city (what `homcull
+/// serve` and `homcull loadgen` run on by default).
+const SCENES: &[&str] = &["munich", "etoile", "oa_shouse", "oa_dm1", "demo"];
 const POSES: usize = 32;
 
 fn main() {
@@ -55,8 +57,12 @@ fn scene(name: &str) -> &'static Bench {
         SCENES
             .iter()
             .map(|&n| {
-                let path = std::path::Path::new(&dir).join(format!("{n}.glb"));
-                let scene = load_path(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                let scene = if n == "demo" {
+                    demo_city()
+                } else {
+                    let path = std::path::Path::new(&dir).join(format!("{n}.glb"));
+                    load_path(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+                };
                 let sampled = PoseSampler::new(&scene).sample(POSES, 1, [960, 540], &|_| true);
                 let cams = sampled
                     .poses
