@@ -90,9 +90,10 @@ impl BoxBvh {
         if nodes.is_empty() {
             return;
         }
+        let planes = cam.frustum_planes();
         let visible = |i: u32| {
             let b = nodes[i as usize].aabb();
-            cam.intersects(&Aabb::new(b.min.into(), b.max.into()))
+            planes.intersects(&Aabb::new(b.min.into(), b.max.into()))
         };
         let mut stack = vec![0u32];
         while let Some(i) = stack.pop() {
@@ -104,7 +105,7 @@ impl BoxBvh {
                 for slot in node.first_index..node.first_index + node.prim_count {
                     let item = self.items[self.bvh.primitive_indices[slot as usize] as usize];
                     // A leaf can hold several boxes: test each one, not just the leaf's.
-                    if cam.intersects(&self.boxes[item as usize]) {
+                    if planes.intersects(&self.boxes[item as usize]) {
                         f(item);
                     }
                 }

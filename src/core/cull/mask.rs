@@ -49,6 +49,19 @@ pub fn union(a: &[u32], b: &[u32]) -> Vec<u32> {
     out
 }
 
+/// The IDs whose bits are set, ascending: a bit per object and one pass over the
+/// words, where sorting the IDs a query found in tree order cost a tenth of a plan.
+pub fn set_bits(mask: &[u32]) -> impl Iterator<Item = u32> + '_ {
+    mask.iter().enumerate().flat_map(|(w, &bits)| {
+        let base = w as u32 * 32;
+        std::iter::successors((bits != 0).then_some(bits), |&b| {
+            let rest = b & (b - 1);
+            (rest != 0).then_some(rest)
+        })
+        .map(move |b| base + b.trailing_zeros())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -70,5 +83,17 @@ mod tests {
         assert_eq!(union(&[1, 3, 5], &[2, 3, 6, 7]), [1, 2, 3, 5, 6, 7]);
         assert_eq!(union(&[], &[4]), [4]);
         assert_eq!(union(&[4], &[]), [4]);
+    }
+
+    #[test]
+    fn set_bits_lists_each_set_bit_ascending() {
+        let ids = [0, 1, 31, 32, 33, 63, 64, 95, 200];
+        let mut m = empty_mask(201);
+        for &i in &ids {
+            set_bit(&mut m, i);
+        }
+        assert_eq!(set_bits(&m).collect::<Vec<_>>(), ids);
+        assert_eq!(set_bits(&empty_mask(100)).count(), 0);
+        assert_eq!(set_bits(&[!0]).count(), 32);
     }
 }

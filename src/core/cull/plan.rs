@@ -2,7 +2,7 @@
 //! scene BVH, pick the in-frustum test boxes, select occluders, build the box-based
 //! depth estimation buffer. A backend then runs the image-space work on the plan.
 
-use super::mask::{empty_mask, has_bit, set_bit};
+use super::mask::{empty_mask, has_bit, set_bit, set_bits};
 use super::prepared::PreparedScene;
 use super::settings::CullSettings;
 use crate::core::camera::{Camera, ScreenRect};
@@ -97,15 +97,17 @@ pub fn plan_with(
     s: &CullSettings,
     occluders: OccluderSelection,
 ) -> PosePlan {
-    let mut candidates = Vec::new();
-    prep.bvh.frustum_query(cam, |i| candidates.push(i));
-    candidates.sort_unstable();
+    // Found in tree order, listed ascending through a bit per object.
+    let mut found = empty_mask(prep.scene.objects.len());
+    prep.bvh.frustum_query(cam, |i| set_bit(&mut found, i));
+    let candidates: Vec<u32> = set_bits(&found).collect();
     let mut test_boxes = Vec::new();
     if s.uses_occluders() {
+        let planes = cam.frustum_planes();
         for &c in &candidates {
             let (a, b) = prep.scene.box_ranges[c as usize];
             test_boxes
-                .extend((a..b).filter(|&i| cam.intersects(&prep.scene.boxes[i as usize].aabb)));
+                .extend((a..b).filter(|&i| planes.intersects(&prep.scene.boxes[i as usize].aabb)));
         }
     }
     let deb = DepthEstimationBuffer::build(
