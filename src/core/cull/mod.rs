@@ -16,6 +16,7 @@
 //! box test per pixel of their own triangles. What a method asks of the plan is said
 //! once, in [`CullSettings`].
 
+pub mod copies;
 pub mod deb;
 pub mod error;
 pub mod mask;

@@ -3,6 +3,7 @@
 //! `PreparedScene` (`core::dynamic` builds it), with the objects that may be moving
 //! marked: their test boxes bound their motion, so only the box test may judge them.
 
+use super::copies::Copies;
 use super::mask::has_bit;
 use crate::core::bvh::BoxBvh;
 use crate::core::occluders::{OccluderDb, OccluderParams};
@@ -20,6 +21,9 @@ pub struct PreparedScene {
     /// Objects moved since `bvh` and the occluders' BVH were built (they were refitted
     /// since): `core::dynamic` builds them again when this grows large.
     pub moved_since_build: usize,
+    /// Objects that are exact copies of earlier ones, which the exact oracle never
+    /// shows ([`Copies`]): the refinement culls them.
+    pub copies: Copies,
 }
 
 impl PreparedScene {
@@ -32,12 +36,14 @@ impl PreparedScene {
     pub fn with_occluders(scene: Scene, occluders: OccluderDb) -> Self {
         let boxes: Vec<_> = scene.objects.iter().map(|o| o.aabb).collect();
         let bvh = BoxBvh::new(&boxes);
+        let copies = Copies::find(&scene);
         PreparedScene {
             scene,
             bvh,
             occluders,
             moving: Vec::new(),
             moved_since_build: 0,
+            copies,
         }
     }
 

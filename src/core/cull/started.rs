@@ -36,6 +36,9 @@ pub struct StartedCull {
     started: Instant,
     /// Time spent starting and finishing the image-space work, ms.
     image_ms: f64,
+    /// Whether the answers leave out the scene's exact copies (the refined method:
+    /// `copies.rs`).
+    hides_copies: bool,
     /// The scene version it culls and its moved objects (set by the engine; answers
     /// carry them).
     pub scene_version: u64,
@@ -93,6 +96,7 @@ pub(super) fn start<C: Culler + ?Sized>(
         batches,
         started,
         image_ms: image.elapsed().as_secs_f64() * 1e3,
+        hides_copies: s.refines() && !prep.copies.is_empty(),
         scene_version: 0,
         placed: None,
     })
@@ -149,6 +153,7 @@ pub(super) fn finish<C: Culler + ?Sized>(
         batches,
         started,
         mut image_ms,
+        hides_copies,
         scene_version,
         placed,
     } = started;
@@ -156,6 +161,11 @@ pub(super) fn finish<C: Culler + ?Sized>(
     let mut masks = Vec::with_capacity(plans.len());
     for batch in batches {
         masks.extend(culler.finish_visibility(batch)?);
+    }
+    // (`prep` may be a later version than the one planned: its copies are the same
+    // pairs or fewer, `Copies::without_moved`, so the answer stays conservative.)
+    if hides_copies {
+        masks.iter_mut().for_each(|m| prep.copies.hide_in(m));
     }
     image_ms += image.elapsed().as_secs_f64() * 1e3;
     let n = plans.len().max(1) as f64;

@@ -103,6 +103,9 @@ pub fn advance(base: &PreparedScene, previous: &PreparedScene, changes: &Changes
             Vec::new()
         },
         moved_since_build: if refitted { moved } else { 0 },
+        copies: previous
+            .copies
+            .without_moved(n, changes.objects.iter().map(|&(id, _)| id)),
     }
 }
 
@@ -209,6 +212,38 @@ mod tests {
             translation: Some([1.5, 0.25, -2.0]),
             velocity,
             ..Default::default()
+        }
+    }
+
+    #[test]
+    fn placing_a_copy_or_its_original_drops_the_copy() {
+        use crate::core::scene::SceneBuilder;
+        // Two identical quads (the second a copy of the first) and a third elsewhere.
+        let quad = |x: f32| [0.0, 1.0].map(|dy| [0.0, 1.0].map(|dx| Vec3::new(x + dx, dy, 0.0)));
+        let mut b = SceneBuilder::default();
+        for (i, x) in [0.0, 0.0, 5.0].into_iter().enumerate() {
+            let q = quad(x);
+            b.push(
+                format!("quad_{i}"),
+                &[q[0][0], q[0][1], q[1][1], q[1][0]],
+                &[0, 1, 2, 0, 2, 3],
+                None,
+            );
+        }
+        let base = Arc::new(PreparedScene::new(
+            b.build("quads"),
+            OccluderParams::default(),
+        ));
+        assert_eq!(base.copies.pairs(), &[(1, 0)]);
+        for (moved, kept) in [(2, true), (0, false), (1, false)] {
+            let mut d = Dynamics::new(base.clone());
+            let req = TransformsRequest {
+                objects: vec![turn(moved, 0.5, None)],
+                horizon_ms: None,
+            };
+            d.apply(&req, usize::MAX).unwrap();
+            let next = advance(&base, &base, &d.take_changes(0).unwrap());
+            assert_eq!(next.copies.is_copy(1), kept, "object {moved} placed");
         }
     }
 
