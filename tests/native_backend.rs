@@ -8,10 +8,12 @@
 //!   for both maps (the per-pixel map and the masked map, `MaskedBackend`): zero
 //!   false culls against the CPU twin; against the GPU oracle where an adapter
 //!   exists, every object the GPU sees and this backend culls must be one the CPU
-//!   twin does not see either (a crack: the GPU snaps vertices to a fixed-point grid
-//!   and can leave a pixel uncovered between nearer triangles, see `real_scenes.rs`),
-//!   and such sightings stay bounded (munich 16, etoile 18 in 120 poses); refined
-//!   efficiency floors; kept ÷ oracle triangles bounds. The answers checked are the
+//!   twin does not see either (the GPU snaps vertices to a fixed-point grid: it can
+//!   leave a pixel uncovered between nearer triangles, a crack, see `real_scenes.rs`,
+//!   and it decides a near tie, where an object meets a surface just in front of it,
+//!   by its own depth arithmetic where the refinement decides it in f64 as the CPU
+//!   twin does), and such sightings stay bounded (munich 20, etoile 28 in 120 poses);
+//!   refined efficiency floors; kept ÷ oracle triangles bounds. The answers checked are the
 //!   served ones (`Culler::cull`, which also leaves out the scene's exact copies,
 //!   `cull::copies`), and every copy is checked hidden in each oracle at every pose.
 
@@ -122,14 +124,16 @@ fn skipping_draw_is_exact(prep: &PreparedScene, p: &PosePlan) -> bool {
     skipping.pixels() == all.pixels()
 }
 
-/// The refined efficiency floor: the 0.99 on every scene (120 poses measured
-/// against the CPU oracle: demo 1.0, munich 0.9995, etoile 0.9965, oa_shouse 0.9924,
-/// oa_dm1 0.9914, godot_room 1.0, fzk_haus 0.9910; answers are deterministic).
+/// The refined efficiency floor: 0.99 on every scene (120 poses measured against the
+/// CPU oracle, per-pixel map / masked map: demo 1.0 / 1.0, munich 0.9999 / 0.9995,
+/// etoile 0.9996 / 0.9965, oa_shouse 0.9983 / 0.9924, oa_dm1 0.9979 / 0.9915,
+/// godot_room 1.0 / 1.0, fzk_haus 0.9966 / 0.9910; answers are deterministic).
 const FLOOR: f64 = 0.99;
 
-/// Kept ÷ oracle triangles bounds, over what was measured (munich 1.0025, etoile 1.0199,
-/// oa_shouse 1.0210, oa_dm1 1.0384): what the refinement keeps of surfaces flush
-/// behind an occluder (its depth margin) weighs most in the maps.
+/// Kept ÷ oracle triangles bounds, over what was measured (per-pixel map / masked map:
+/// munich 1.0004 / 1.0025, etoile 1.0009 / 1.0199, oa_shouse 1.0097 / 1.0210, oa_dm1
+/// 1.0045 / 1.0384): the masked map decides no near tie finely, so surfaces flush
+/// behind an occluder (within its depth margin) weigh most there.
 fn max_overdraw(scene: &str) -> f64 {
     if scene.starts_with("oa_") {
         1.045
@@ -167,7 +171,7 @@ fn check(scene: Scene) {
         quality(&name, map, &prep, &plans, mask, &oracle);
     }
 
-    // Against the GPU oracle: only cracks.
+    // Against the GPU oracle: only cracks and near ties the GPU decides otherwise.
     let scene = &prep.scene;
     let Some(gpu) = common::gpu() else { return };
     let gpu_oracle = GpuBackend::new(gpu, &prep)
@@ -184,11 +188,11 @@ fn check(scene: Scene) {
             );
         }
         eprintln!(
-            "{name} ({map} map): {} objects only the GPU oracle sees (through cracks), culled",
+            "{name} ({map} map): {} objects only the GPU oracle sees (cracks, near ties), culled",
             gpu_only.len()
         );
         assert!(
-            gpu_only.len() * 4 <= POSES,
+            gpu_only.len() * 3 <= POSES,
             "{name} ({map} map): {} GPU-only sightings in {POSES} poses",
             gpu_only.len()
         );
@@ -313,4 +317,59 @@ fn godot_room_native() {
 #[test]
 fn fzk_haus_native() {
     shared("fzk_haus.glb");
+}
+
+/// Squares just behind, just in front of, and well behind a wall: the refinement
+/// decides a near tie (a depth gap below its f32 margin, 3e-6 of the depth here) in
+/// f64, as the oracle does, and culls only what the oracle hides.
+#[test]
+fn near_ties_are_decided_as_the_oracle_decides() {
+    use homcull::core::scene::SceneBuilder;
+    let square = |z: f32, half: f32| -> Vec<Vec3> {
+        [(-half, -half), (half, -half), (half, half), (-half, half)]
+            .iter()
+            .map(|&(x, y)| Vec3::new(x + 0.13, y + 2.07, z))
+            .collect()
+    };
+    let quad = [0, 1, 2, 0, 2, 3];
+    let mut b = SceneBuilder::default();
+    b.push("wall".into(), &square(0.0, 4.0), &quad, None);
+    let cases = [
+        ("just behind", -3e-5, false),
+        ("well behind", -3e-4, false),
+        ("just in front", 3e-5, true),
+    ];
+    for (name, dz, _) in cases {
+        b.push(name.into(), &square(dz, 1.0), &quad, None);
+    }
+    let prep = PreparedScene::new(
+        b.build("near ties"),
+        OccluderParams {
+            min_diagonal: 0.0,
+            ..Default::default()
+        },
+    );
+    let cam = look_at(
+        Vec3::new(0.4, 2.3, 10.0),
+        Vec3::new(0.1, 2.0, 0.0),
+        320,
+        180,
+    );
+    let exact = settings(&prep, Method::Exact, DebVariant::Raster, false);
+    let oracle = ReferenceBackend
+        .visibility(&prep, &[plan(&prep, &cam, &exact)], &exact)
+        .unwrap();
+    let hom = settings(&prep, Method::Hom, DebVariant::Raster, true);
+    let served = served(
+        &mut NativeBackend,
+        &prep,
+        std::slice::from_ref(&cam),
+        &[plan(&prep, &cam, &hom)],
+        &hom,
+    );
+    for (k, (name, _, seen)) in cases.into_iter().enumerate() {
+        let id = k as u32 + 1;
+        assert_eq!(has_bit(&oracle[0], id), seen, "{name}: the oracle");
+        assert_eq!(has_bit(&served[0], id), seen, "{name}: the refinement");
+    }
 }

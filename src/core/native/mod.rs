@@ -33,8 +33,15 @@
 //!    map by the margin. The oracle gives a pixel to an object only if none of the
 //!    fragments there is nearer, and the map holds a subset of those fragments, so a
 //!    pixel the oracle gives to the object fails the comparison unless depths differ
-//!    between the two computations by more than the margin (1e-4 relative); both
-//!    interpolate `1/w` from the same f64 setup, within ~1e-6.
+//!    between the two computations by more than the margin (1e-5 relative); both
+//!    interpolate `1/w` from the same f64 setup, within ~1e-6. A fragment closer to
+//!    the map than that (a near tie: where an object meets a surface just in front of
+//!    it) is decided in f64: hidden only if a drawn occluder triangle covers the pixel
+//!    (the oracle's coverage) with its f64 plane in front by 1e-6, a gap no oracle's
+//!    single rounding to f32 closes (`refine::RESOLVE_MARGIN`).
+//! 4. Objects that are exact copies of earlier objects (`cull::copies`) are left out
+//!    of refined answers by the caller: the oracle gives their every pixel to the
+//!    earlier copy.
 //!
 //! What it does not do natively: approximate thresholds (below 1.0) and the `hzb`
 //! baseline, which need the averaged opacity pyramid; those build the reference

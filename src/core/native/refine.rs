@@ -11,11 +11,19 @@
 //! map lies in front of it by the depth margin ([`REFINE_MARGIN`], compared as
 //! `1/w`): the map and the fragment come
 //! from one rasterizer's arithmetic but not from the oracle's, and the margin is what
-//! keeps a tie, or a difference in the last bits, from ever culling.
+//! keeps a tie, or a difference in the last bits, from ever culling. A fragment
+//! within the margin of the map but not level with it (a near tie: where an object
+//! meets a wall just in front of it, the last pixels between it and a cull) is looked
+//! at again in f64: the drawn occluder triangles reaching its pixel are asked whether
+//! one covers it in front by [`RESOLVE_MARGIN`] ([`OcclusionMap::drawn_nearer`]).
+//!
+//! The exact ID buffer here evaluates each pixel's `1/w` in f64 and rounds it once to
+//! f32, as the CPU oracle twin does with its depth, so that its near ties fall as the
+//! twin's do and the refinement's f64 decisions agree with it.
 
 use super::map::{OcclusionMap, front_facing};
 use super::masked::MaskedMap;
-use super::span::{LANES, Span, padded_len, span_triangles};
+use super::span::{LANES, Span, SpanTriangle, padded_len, span_triangles};
 use crate::core::camera::Camera;
 use crate::core::cull::{empty_mask, set_bit};
 use crate::core::scene::Scene;
@@ -30,13 +38,39 @@ use crate::core::scene::Scene;
 /// surfaces a hair behind an occluder (flush trims, decals, floors under floors).
 pub const REFINE_MARGIN: f32 = 1e-5;
 
-/// True if every pixel centre object `id` covers lies behind the map by the margin.
+/// Relative margin of the fine decision of a near tie ([`hidden_per_pixel`]): a
+/// fragment whose f64 `1/w` is `v` is hidden there when a drawn occluder triangle
+/// covers the pixel with an f64 `1/w` above `v · (1 + RESOLVE_MARGIN)`. Every CPU
+/// oracle rounds each fragment's depth once to f32 from the same f64 plane (2^-24 of
+/// itself, ~6e-8) and keeps the strictly nearer, so a gap of 1e-6 is one no oracle's
+/// rounding closes: there the occluder's fragment beats the object's in the oracle too.
+pub const RESOLVE_MARGIN: f64 = 1e-6;
+
+/// How far behind the object's fragment the map's f32 value may lie for the pixel to
+/// be a near tie worth deciding finely: the map's and the fragment's lanes each stray
+/// from their f64 planes by at most `span::LANE_SLACK` (4e-6), so below this no
+/// occluder can be nearer by [`RESOLVE_MARGIN`]. (A pixel outside the band is
+/// visible; the band only decides which pixels are looked at again.)
+const NEAR_TIE_BAND: f32 = 1e-5;
+
+/// A map value this close to the fragment's own lanes is taken for the object's own
+/// fragment (an occluder finds itself in the map, through the same lanes up to the
+/// last bits): visible, without a fine decision, which would find no triangle nearer.
+/// (Conservative: a near tie left undecided keeps the object.)
+const OWN_FRAGMENT: f32 = 5e-7;
+
+/// True if every pixel centre object `id` covers lies behind the map: by the margin
+/// of the f32 lanes, or, at a near tie (a fragment within [`NEAR_TIE_BAND`] of the
+/// map, such as where an object meets the wall in front of it), behind a drawn
+/// occluder triangle covering the pixel by [`RESOLVE_MARGIN`] in f64
+/// ([`OcclusionMap::drawn_nearer`]).
 /// (Compiled per SIMD level, like every loop here that cuts triangles into spans.)
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 pub fn hidden_per_pixel(map: &OcclusionMap, scene: &Scene, cam: &Camera, id: u32) -> bool {
     let rows = (0, cam.height - 1);
     let w = cam.width as usize;
     let o = &scene.objects[id as usize];
+    let mut hint = None;
     scene.corners_of(o).all(|tri| {
         span_triangles(cam, tri, |t| {
             // A triangle the tile bounds show hidden by the margin needs no spans:
@@ -46,10 +80,46 @@ pub fn hidden_per_pixel(map: &OcclusionMap, scene: &Scene, cam: &Camera, id: u32
             }
             t.spans(rows, |y, s| {
                 let at = y as usize * w + s.x0 as usize;
-                span_hidden(&map.pixels_with_padding()[at..at + s.lanes_len()], &s)
+                let occ = &map.pixels_with_padding()[at..at + s.lanes_len()];
+                span_hidden(occ, &s) || near_ties_hidden(map, occ, &s, t, y, &mut hint)
             })
         })
     })
+}
+
+/// The slow path of a span [`span_hidden`] did not show hidden: true if each of its
+/// fragments the map does not hide by the margin is a near tie that a drawn occluder
+/// triangle hides in f64 ([`OcclusionMap::drawn_nearer`]).
+#[cold]
+#[inline(never)]
+fn near_ties_hidden(
+    map: &OcclusionMap,
+    occ: &[f32],
+    s: &Span,
+    t: &SpanTriangle,
+    y: u32,
+    hint: &mut Option<(bool, u32)>,
+) -> bool {
+    let k = 1.0 + REFINE_MARGIN;
+    let band = 1.0 - NEAR_TIE_BAND;
+    let py = y as f64 + 0.5;
+    for (n, c) in occ.chunks_exact(LANES).enumerate() {
+        let v = s.lanes_or(n * LANES, -1.0);
+        for j in 0..LANES {
+            if c[j] > k * v[j] {
+                continue;
+            }
+            if c[j] <= band * v[j] || (c[j] - v[j]).abs() <= OWN_FRAGMENT * v[j] {
+                return false;
+            }
+            let x = s.x0 + (n * LANES + j) as u32;
+            let fragment = t.inv_w_at(x as f64 + 0.5, py);
+            if !map.drawn_nearer(x, y, fragment * (1.0 + RESOLVE_MARGIN), hint) {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 /// [`hidden_per_pixel`] on the masked map: a triangle the tiles' bounds show hidden
@@ -149,7 +219,7 @@ fn nearest_id(inv_w: &mut [f32], ids: &mut [u32], s: &Span, id: u32) {
         .enumerate()
     {
         // Past the span, -1: no map value (never below 0) lies behind it.
-        let v = s.lanes_or(n * LANES, -1.0);
+        let v = s.lanes_exact_or(n * LANES, -1.0);
         // Blended in registers and stored whole (a select of the loaded value
         // written back in place becomes a masked store).
         let (mut depth, mut owner) = ([0.0; LANES], [0; LANES]);

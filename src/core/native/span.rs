@@ -374,6 +374,22 @@ impl Span {
         v
     }
 
+    /// `1/w` of pixels `x0 + i + k` for `k` in `0..LANES`, each evaluated in f64 and
+    /// rounded once to f32 (so within f32's rounding, 2^-24 of itself, of the f64
+    /// plane, where [`Span::lanes`] may stray by [`LANE_SLACK`]), lanes past the span
+    /// set to `outside`. The exact ID buffer's depths: its near ties are decided as
+    /// finely as the reference's.
+    #[inline(always)]
+    pub fn lanes_exact_or(&self, i: usize, outside: f32) -> [f32; LANES] {
+        let left = self.pixels() - i;
+        let mut v = [0.0; LANES];
+        for (k, v) in v.iter_mut().enumerate() {
+            let exact = (self.start + self.slope * (i + k) as f64) as f32;
+            *v = if k < left { exact } else { outside };
+        }
+        v
+    }
+
     /// [`Span::lanes`] of the chunks from pixel `x0 + i` on, one chunk after another:
     /// the f64 base steps by `LANES` pixels with an addition (its rounding, ~1e-16 of
     /// the base per chunk, stays far below f32's) where `lanes` multiplies anew.

@@ -21,7 +21,7 @@ const SKIP_TEST_MIN_PIXELS: u32 = 64;
 /// Rows of the map drawn together ([`draw_binned`]): a band of a 960-pixel-wide map
 /// (120 KB) stays in a core's L2 cache while every triangle reaching it is drawn and
 /// its tiles are bounded. A multiple of [`TILE`].
-const BAND: u32 = 32;
+pub(super) const BAND: u32 = 32;
 
 /// The screen triangles of `tris` for drawing into `map`. With `skip_hidden` (the map
 /// is bounded and has only grown nearer since), a large triangle that the bounds show

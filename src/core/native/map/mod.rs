@@ -55,7 +55,10 @@ pub struct OcclusionMap {
     far: Vec<f32>,
     /// Largest `1/w` under each texel, all levels.
     near: Vec<f32>,
-    /// The screen triangles of the draw in progress.
+    /// The screen triangles drawn since the last reset: those of the draw before the
+    /// last one (`draw_occluders`' first part), and of the last. The refinement looks
+    /// up which of them cover a pixel it must decide finely ([`OcclusionMap::drawn`]).
+    setup_before: Vec<SpanTriangle>,
     setup: Vec<SpanTriangle>,
     /// Whether every tile's bounds were built since the last reset (then a draw
     /// re-bounds only the bands it wrote to).
@@ -63,8 +66,10 @@ pub struct OcclusionMap {
     /// Draw the bands of one pose in parallel on rayon's pool (for a pose that has
     /// the cores to itself); the map ends the same either way.
     pub bands_in_parallel: bool,
-    /// The triangles reaching each band of the draw in progress.
+    /// The triangles reaching each band of rows, of the last draw (indices into
+    /// `setup`) and the one before (into `setup_before`).
     bins: Vec<Vec<u32>>,
+    bins_before: Vec<Vec<u32>>,
     /// Per band of rows, whether a draw may have left a pixel there nonzero since it
     /// was last cleared ([`OcclusionMap::reset`] clears only those).
     dirty: Vec<bool>,
@@ -108,6 +113,10 @@ impl OcclusionMap {
         } else {
             clear_dirty_bands(self);
         }
+        self.setup.clear();
+        self.setup_before.clear();
+        self.bins.iter_mut().for_each(Vec::clear);
+        self.bins_before.iter_mut().for_each(Vec::clear);
         self.bounded = false;
     }
 
@@ -130,6 +139,9 @@ impl OcclusionMap {
             if bounded && part.is_empty() {
                 continue;
             }
+            if bounded {
+                self.keep_last_draw();
+            }
             let mut setup = std::mem::take(&mut self.setup);
             setup.clear();
             skipped += setup_occluders(self, scene, cam, part, bounded, &mut setup);
@@ -142,11 +154,56 @@ impl OcclusionMap {
     /// Draws triangles into the map (the nearest fragment wins each pixel) and bounds
     /// it.
     pub fn draw(&mut self, cam: &Camera, tris: impl Iterator<Item = [Vec3; 3]>) {
+        self.keep_last_draw();
         let mut setup = std::mem::take(&mut self.setup);
         setup.clear();
         setup_triangles(self, cam, tris, false, &mut setup);
         draw_binned(self, &setup);
         self.setup = setup;
+    }
+
+    /// Keeps the last draw's triangles and bins as the one before, for the next draw.
+    fn keep_last_draw(&mut self) {
+        std::mem::swap(&mut self.setup, &mut self.setup_before);
+        std::mem::swap(&mut self.bins, &mut self.bins_before);
+    }
+
+    /// Whether a triangle of the last two draws since the reset (all of
+    /// [`OcclusionMap::draw_occluders`]' triangles, but those it left out as hidden)
+    /// covers pixel `(x, y)` with its f64 `1/w` plane above `bound` there: the
+    /// coverage of [`SpanTriangle::row`] (the oracle's) and the plane the oracle
+    /// interpolates, without the f32 lanes' error. The triangles reaching the pixel's
+    /// band of rows are asked, `hint` (the last one that answered yes: the pixels
+    /// asked about one object mostly lie along the edge of one occluder) first.
+    pub fn drawn_nearer(&self, x: u32, y: u32, bound: f64, hint: &mut Option<(bool, u32)>) -> bool {
+        let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+        let covers = |t: &SpanTriangle| {
+            let b = &t.tri;
+            (b.x0..=b.x1).contains(&x)
+                && (b.y0..=b.y1).contains(&y)
+                && t.inv_w_at(px, py) > bound
+                && t.row(y).is_some_and(|(a, z)| (a..=z).contains(&x))
+        };
+        let of = |before: bool, i: u32| {
+            let tris = if before {
+                &self.setup_before
+            } else {
+                &self.setup
+            };
+            &tris[i as usize]
+        };
+        if hint.is_some_and(|(before, i)| covers(of(before, i))) {
+            return true;
+        }
+        let band = (y / draw::BAND) as usize;
+        for (before, bins) in [(true, &self.bins_before), (false, &self.bins)] {
+            let Some(list) = bins.get(band) else { continue };
+            if let Some(&i) = list.iter().find(|&&i| covers(of(before, i))) {
+                *hint = Some((before, i));
+                return true;
+            }
+        }
+        false
     }
 
     /// Builds the tile bounds from the pixels (drawing does it as it goes).
