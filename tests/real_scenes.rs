@@ -1,5 +1,6 @@
-//! Conservativeness and efficiency on the shared real scenes and the demo city, on a
-//! real adapter: for each scene, 200 sampled poses at 960×540; `hom` (every DEB
+//! Conservativeness and efficiency on the shared real scenes and the demo city, on
+//! each backend (a real adapter, and the native CPU backend), each against its own
+//! exact oracle: for each scene, 200 sampled poses at 960×540; `hom` (every DEB
 //! variant, with and without the per-pixel refinement) and `hzb` must have zero false
 //! culls against the exact oracle, and `hom` as served (raster DEB, refined) and the
 //! box test alone (`hom-raster`) must reach the efficiency floors measured for that
@@ -9,7 +10,7 @@
 mod common;
 
 use homcull::core::camera::Camera;
-use homcull::core::engine::Engine;
+use homcull::core::engine::{Backend, Engine};
 use homcull::core::occluders::OccluderParams;
 use homcull::core::pvs::Pvs;
 use homcull::core::sampler::PoseSampler;
@@ -20,7 +21,7 @@ use homcull_proto::DebVariant;
 const POSES: usize = 200;
 
 /// Efficiency floors for `hom` as served (raster DEB, refined, threshold 1.0, default
-/// budget), set under what 200 poses measured on lavapipe (demo 1.000, munich 1.000,
+/// budget), on either backend, set under what 200 poses measured on lavapipe (demo 1.000, munich 1.000,
 /// etoile 1.000, oa_shouse 0.998, oa_dm1 0.992, godot_room 1.000, fzk_haus 1.000).
 fn floor(scene: &str) -> f64 {
     match scene {
@@ -50,7 +51,13 @@ fn box_floor(scene: &str) -> f64 {
 }
 
 fn check(scene: Scene) {
-    let Some(gpu) = common::gpu() else { return };
+    check_on(scene.clone(), Backend::Native);
+    if let Some(gpu) = common::gpu() {
+        check_on(scene, Backend::Gpu(gpu));
+    }
+}
+
+fn check_on(scene: Scene, backend: Backend) {
     let name = scene.name.clone();
     let pvs = Pvs::from_scene(&scene).map(|r| r.expect("the scene's PVS parses"));
     let accept = |p: glam::Vec3| pvs.as_ref().is_none_or(|v| v.cluster_at(p) >= 0);
@@ -76,42 +83,43 @@ fn check(scene: Scene) {
     .iter()
     .map(|m| MethodSpec::parse(m, 1.0, DebVariant::Raster, true).unwrap())
     .collect();
-    let mut engine = Engine::new(scene, OccluderParams::default(), Some(gpu));
+    let mut engine = Engine::new(scene, OccluderParams::default(), backend);
     let report = evaluate(&mut engine, &cams, &methods, 16, pvs.as_ref(), false).unwrap();
     eprintln!("{}", homcull::eval::table(&report));
+    let label = format!("{name} ({})", engine.adapter());
     for (m, r) in &report.methods {
         assert_eq!(
             r.false_culls, 0,
-            "{name}: {m} culled objects the oracle sees"
+            "{label}: {m} culled objects the oracle sees"
         );
         assert!(r.oracle_visible <= r.in_frustum);
     }
     let hom = &report.methods["hom"];
     assert!(
         hom.efficiency >= floor(&name),
-        "{name}: hom efficiency {:.3} below floor {}",
+        "{label}: hom efficiency {:.3} below floor {}",
         hom.efficiency,
         floor(&name)
     );
     let boxes = &report.methods["hom-raster"];
     assert!(
         boxes.efficiency >= box_floor(&name),
-        "{name}: hom-raster (box test alone) efficiency {:.3} below floor {}",
+        "{label}: hom-raster (box test alone) efficiency {:.3} below floor {}",
         boxes.efficiency,
         box_floor(&name)
     );
     assert!(
         hom.efficiency >= boxes.efficiency,
-        "{name}: the refinement only removes objects"
+        "{label}: the refinement only removes objects"
     );
     assert!(report.methods["frustum"].efficiency == 0.0);
     if let Some(check) = &report.pvs {
         assert!(
             check.poses_checked as usize >= POSES / 2,
-            "{name}: too few poses inside a cluster"
+            "{label}: too few poses inside a cluster"
         );
         eprintln!(
-            "{name}: hom keeps {} objects the PVS proves hidden",
+            "{label}: hom keeps {} objects the PVS proves hidden",
             hom.kept_pvs_hidden.unwrap_or(0)
         );
         // Every object the GPU oracle sees outside the map's PVS must be explained: an
@@ -121,10 +129,10 @@ fn check(scene: Scene) {
         // grid, leaves a pixel between nearer triangles uncovered that exact arithmetic
         // covers; oa_shouse pose 8 sees 10.06 m deep at one pixel where the CPU sees a
         // wall at 7.82 m). The CPU oracle is audited pixel by pixel in `pvs_oracle.rs`.
-        eprintln!("{name}: {}", check.summary());
+        eprintln!("{label}: {}", check.summary());
         assert_eq!(
             check.unexplained, 0,
-            "{name}: the oracle sees objects the PVS rules out: {:?}",
+            "{label}: the oracle sees objects the PVS rules out: {:?}",
             check.sightings
         );
         assert_eq!(
@@ -133,7 +141,7 @@ fn check(scene: Scene) {
         );
         assert!(
             check.cracks as usize * 100 <= POSES,
-            "{name}: {} GPU-only sightings outside the PVS in {POSES} poses",
+            "{label}: {} GPU-only sightings outside the PVS in {POSES} poses",
             check.cracks
         );
     }
