@@ -240,13 +240,16 @@ impl SpanTriangle {
                 below[r] = c.floor();
                 doubt[r] |= !e.clear_of_ties(c, below[r]);
             }
+            // Compare and select, not `f64::max`/`min` with their NaN fix-ups: a NaN
+            // crossing puts its row in doubt, and the row is answered by `row`.
             if e.q < 0.0 {
                 for r in 0..ROWS {
-                    lo[r] = lo[r].max(below[r] + 1.0);
+                    let b = below[r] + 1.0;
+                    lo[r] = if b > lo[r] { b } else { lo[r] };
                 }
             } else {
                 for r in 0..ROWS {
-                    hi[r] = hi[r].min(below[r]);
+                    hi[r] = if below[r] < hi[r] { below[r] } else { hi[r] };
                 }
             }
         }
@@ -256,11 +259,28 @@ impl SpanTriangle {
         // last = -1 (first is never negative: lo starts at x0 ≥ 0).
         let (mut first, mut last) = ([0; ROWS], [0; ROWS]);
         let mut any_doubt = false;
+        // Clamped to the box widened by one pixel each way (a NaN to its left end):
+        // every value is then a finite integer in i32's range.
+        let (left, right) = (t.x0 as f64 - 1.0, t.x1 as f64 + 1.0);
+        let clamp = |v: f64| {
+            let v = if v > left { v } else { left };
+            if v < right { v } else { right }
+        };
         for r in 0..ROWS {
             let row = y + r as u32;
             let wanted = row >= within.0 && row <= within.1;
-            first[r] = lo[r] as i32;
-            last[r] = if wanted { hi[r] as i32 } else { -1 };
+            // SAFETY: `clamp` answers a finite integer-valued f64 in `x0-1..=x1+1`,
+            // within i32 (pixel indices are below 2^20), which is what
+            // `to_int_unchecked` requires; the saturating `as` adds NaN and range
+            // fix-ups per lane.
+            let (a, b) = unsafe {
+                (
+                    clamp(lo[r]).to_int_unchecked::<i32>(),
+                    clamp(hi[r]).to_int_unchecked::<i32>(),
+                )
+            };
+            first[r] = a;
+            last[r] = if wanted { b } else { -1 };
             doubt[r] &= wanted;
             any_doubt |= doubt[r];
         }
