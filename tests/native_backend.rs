@@ -225,7 +225,7 @@ fn served(
 /// Every exact copy of the scene is hidden in `oracle` at every pose.
 fn copies_hidden(name: &str, prep: &PreparedScene, oracle: &[Vec<u32>], which: &str) {
     for (k, o) in oracle.iter().enumerate() {
-        for &(copy, _) in prep.copies.pairs() {
+        for copy in prep.copies.ids() {
             assert!(
                 !has_bit(o, copy),
                 "{name}: pose {k}: the {which} oracle sees copy {copy}"

@@ -109,9 +109,15 @@ impl Copies {
         self.pairs.is_empty()
     }
 
+    /// The copies, ascending (each once, however many objects its triangles come
+    /// from).
+    pub fn ids(&self) -> impl Iterator<Item = u32> + '_ {
+        self.pairs.chunk_by(|a, b| a.0 == b.0).map(|of| of[0].0)
+    }
+
     /// The number of copies.
     pub fn len(&self) -> usize {
-        self.pairs.len()
+        self.ids().count()
     }
 
     /// Whether object `id` is a copy.
@@ -210,6 +216,25 @@ mod tests {
         let mut visible = vec![!0u32];
         c.hide_in(&mut visible);
         assert_eq!(visible[0] & 0b11111, 0b10011);
+    }
+
+    #[test]
+    fn a_copy_of_two_originals_is_one_copy() {
+        let (a, b) = (Vec3::ZERO, Vec3::new(5.0, 0.0, 0.0));
+        let mut s = scene_of(&[(a, false), (b, false), (a, false)]);
+        // Object 2's second half of triangles taken from object 1 instead of object 0.
+        let (f1, f2) = (
+            s.objects[1].first_index as usize,
+            s.objects[2].first_index as usize,
+        );
+        let from_1: Vec<u32> = s.indices[f1 + 18..f1 + 36].to_vec();
+        s.indices[f2 + 18..f2 + 36].copy_from_slice(&from_1);
+        let c = Copies::find(&s);
+        assert_eq!(c.pairs(), &[(2, 0), (2, 1)]);
+        assert_eq!(c.ids().collect::<Vec<_>>(), [2]);
+        assert_eq!(c.len(), 1);
+        // Either original placed anew drops the copy.
+        assert!(c.without_moved(3, [1]).is_empty());
     }
 
     #[test]
