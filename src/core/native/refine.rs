@@ -98,7 +98,7 @@ fn near_ties_hidden(
     s: &Span,
     t: &SpanTriangle,
     y: u32,
-    hint: &mut Option<(bool, u32)>,
+    hint: &mut Option<u32>,
 ) -> bool {
     let k = 1.0 + REFINE_MARGIN;
     let band = 1.0 - NEAR_TIE_BAND;

@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use super::{OcclusionMap, TILE, bound_tile_rows, front_facing};
+use super::{OcclusionMap, TILE, TileRect, bound_tile_rows, front_facing};
 use crate::core::camera::Camera;
 use crate::core::cull::deb::DEPTH_MARGIN;
 use crate::core::geom::Aabb;
@@ -120,32 +120,63 @@ type BandSlices<'a> = (
     (
         (
             ((&'a mut [f32], &'a mut [f32]), &'a mut [f32]),
-            &'a Vec<u32>,
+            ((&'a Vec<u32>, &'a usize), &'a (u32, u32)),
         ),
         &'a mut bool,
     ),
 );
 
-/// Draws screen triangles band by band ([`BAND`] rows): the triangles are binned by
-/// the bands they reach, then each band's pixels are written by every triangle in its
-/// bin and its tiles bounded, while they are in cache (a band no triangle reaches
-/// keeps its bounds if the map was bounded before); the coarser bounds follow. Each
+/// Draws the map's screen triangles from `from` on (those set up since the last draw)
+/// band by band ([`BAND`] rows): the triangles are binned by the bands they reach
+/// (appended to the bins of the draws before), then each band's pixels are written by
+/// every new triangle in its bin and the tiles they reach bounded, while they are in
+/// cache (on a map bounded before, the other tiles keep their bounds; on a fresh one
+/// they are 0); the coarser bounds follow over the tiles drawn on. Each
 /// band works on its own rows of the map and of the finest bounds (disjoint slices; a
 /// span's last chunk that would run past the band's last row is cut there), so the
 /// bands of one pose can be drawn in parallel on rayon's pool
 /// ([`OcclusionMap::bands_in_parallel`]). The map keeps the largest `1/w` per pixel,
 /// which depends neither on the order of drawing nor on the split.
-pub(super) fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
+pub(super) fn draw_binned(map: &mut OcclusionMap, from: usize) {
     use rayon::prelude::*;
     let (w, h) = (map.width as usize, map.height);
     let bands = h.div_ceil(BAND) as usize;
     map.dirty.resize(bands, false);
     let mut bins = std::mem::take(&mut map.bins);
     bins.resize_with(bands, Vec::new);
-    bins.iter_mut().for_each(Vec::clear);
-    for (i, t) in tris.iter().enumerate() {
-        for band in &mut bins[(t.tri.y0 / BAND) as usize..=(t.tri.y1 / BAND) as usize] {
+    let mut bins_from = std::mem::take(&mut map.bins_from);
+    bins_from.clear();
+    bins_from.extend(bins.iter().map(Vec::len));
+    let mut band_cols = std::mem::take(&mut map.band_cols);
+    band_cols.clear();
+    band_cols.resize(bands, (u32::MAX, 0));
+    let tris = &map.setup;
+    for (i, t) in tris.iter().enumerate().skip(from) {
+        let reached = (t.tri.y0 / BAND) as usize..=(t.tri.y1 / BAND) as usize;
+        let cols = (t.tri.x0 / TILE, t.tri.x1 / TILE);
+        for (band, c) in bins[reached.clone()]
+            .iter_mut()
+            .zip(&mut band_cols[reached])
+        {
             band.push(i as u32);
+            *c = (c.0.min(cols.0), c.1.max(cols.1));
+        }
+    }
+    // The finest tiles drawn on: the upper levels are bounded over them.
+    let mut drawn = TileRect {
+        x0: u32::MAX,
+        y0: u32::MAX,
+        x1: 0,
+        y1: 0,
+    };
+    let tiles_per_band = BAND / TILE;
+    for (band, &(c0, c1)) in band_cols.iter().enumerate() {
+        if c0 <= c1 {
+            let b = band as u32;
+            drawn.x0 = drawn.x0.min(c0);
+            drawn.x1 = drawn.x1.max(c1);
+            drawn.y0 = drawn.y0.min(b * tiles_per_band);
+            drawn.y1 = drawn.y1.max(b * tiles_per_band + tiles_per_band - 1);
         }
     }
     let tile_rows = (BAND / TILE) as usize * map.dims[0].0 as usize;
@@ -154,9 +185,17 @@ pub(super) fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
     let band_rows = BAND as usize * w;
     let pixels = &mut map.inv_w[..w * h as usize];
     let (far, near) = (&mut map.far[..level0], &mut map.near[..level0]);
-    let draw = |(band, ((((px, far), near), list), dirty)): BandSlices| {
+    let draw = |(band, ((((px, far), near), ((list, &from), &cols)), dirty)): BandSlices| {
+        let list = &list[from..];
         if !list.is_empty() {
-            draw_band(px, far, near, w, band as u32 * BAND, tris, list);
+            // Bounded, the tiles no triangle reached keep their bounds; else they
+            // are 0, as their pixels are.
+            let cols = if bounded {
+                cols.0 as usize..cols.1 as usize + 1
+            } else {
+                0..w.div_ceil(TILE as usize)
+            };
+            draw_band(px, far, near, w, band as u32 * BAND, tris, list, cols);
             *dirty = true;
         } else if !bounded {
             // The first draw since a reset, which left every band clean: each pixel
@@ -173,7 +212,7 @@ pub(super) fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
             .par_chunks_mut(band_rows)
             .zip(far.par_chunks_mut(tile_rows))
             .zip(near.par_chunks_mut(tile_rows))
-            .zip(&bins)
+            .zip(bins.par_iter().zip(&bins_from).zip(&band_cols))
             .zip(&mut dirty)
             .enumerate()
             .for_each(draw);
@@ -182,19 +221,29 @@ pub(super) fn draw_binned(map: &mut OcclusionMap, tris: &[SpanTriangle]) {
             .chunks_mut(band_rows)
             .zip(far.chunks_mut(tile_rows))
             .zip(near.chunks_mut(tile_rows))
-            .zip(&bins)
+            .zip(bins.iter().zip(&bins_from).zip(&band_cols))
             .zip(&mut dirty)
             .enumerate()
             .for_each(draw);
     }
     map.dirty = dirty;
     map.bins = bins;
-    map.bound_upper_levels();
+    map.bins_from = bins_from;
+    map.band_cols = band_cols;
+    let rect = if bounded { drawn } else { map.all_tiles() };
+    if rect.x0 <= rect.x1 {
+        map.bound_upper_levels(TileRect {
+            y1: rect.y1.min(map.dims[0].1 - 1),
+            ..rect
+        });
+    }
     map.bounded = true;
 }
 
 /// One band of [`draw_binned`]: `px` are its rows from `y0`, `far`/`near` its tile
-/// rows' finest bounds, `list` the triangles reaching it.
+/// rows' finest bounds, `list` the triangles reaching it, `cols` the tile columns
+/// whose bounds it builds (those the triangles reach, on a bounded map).
+#[allow(clippy::too_many_arguments)]
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn draw_band(
     px: &mut [f32],
@@ -204,6 +253,7 @@ fn draw_band(
     y0: u32,
     tris: &[SpanTriangle],
     list: &[u32],
+    cols: std::ops::Range<usize>,
 ) {
     let y1 = y0 + (px.len() / w) as u32 - 1;
     for &i in list {
@@ -214,7 +264,7 @@ fn draw_band(
             true
         });
     }
-    bound_tile_rows(px, w, far, near);
+    bound_tile_rows(px, w, cols, far, near);
 }
 
 /// `dst[i] = max(dst[i], 1/w of the span's pixel i)`: the nearest fragment wins.

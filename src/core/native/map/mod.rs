@@ -32,10 +32,15 @@ use draw::{clear_dirty_bands, draw_binned, setup_occluders, setup_triangles};
 /// Side of the pyramid's finest texels, in pixels.
 pub const TILE: u32 = 8;
 
-/// [`OcclusionMap::draw_occluders`] bounds the map after the nearest 1/CHECKPOINT of
-/// the occluders (but at least [`MIN_BEFORE_CHECKPOINT`]).
-const CHECKPOINT: usize = 4;
-const MIN_BEFORE_CHECKPOINT: usize = 8;
+/// [`OcclusionMap::draw_occluders`] draws the occluders in parts of growing size and
+/// bounds the map after each: the nearest [`FIRST_PART`], then parts each ending at
+/// [`PART_GROWTH`] times the count drawn before it (with 2, each part is as large as
+/// all before it). A later occluder is tested against bounds that are at most one
+/// part old: on the shared scenes, parts of 8, 8, 16, 32, … drew 10–40 % faster
+/// than a first quarter and the rest (the nearest quarter of a city's occluders
+/// holds most of its hidden ones, drawn before any bound could skip them).
+const FIRST_PART: usize = 8;
+const PART_GROWTH: usize = 2;
 
 /// Most levels of the tile pyramid (a 2^20-pixel side).
 const MAX_LEVELS: usize = 18;
@@ -55,10 +60,9 @@ pub struct OcclusionMap {
     far: Vec<f32>,
     /// Largest `1/w` under each texel, all levels.
     near: Vec<f32>,
-    /// The screen triangles drawn since the last reset: those of the draw before the
-    /// last one (`draw_occluders`' first part), and of the last. The refinement looks
-    /// up which of them cover a pixel it must decide finely ([`OcclusionMap::drawn`]).
-    setup_before: Vec<SpanTriangle>,
+    /// The screen triangles of every draw since the last reset, in the order drawn.
+    /// The refinement looks up which of them cover a pixel it must decide finely
+    /// ([`OcclusionMap::drawn_nearer`]).
     setup: Vec<SpanTriangle>,
     /// Whether every tile's bounds were built since the last reset (then a draw
     /// re-bounds only the bands it wrote to).
@@ -66,10 +70,12 @@ pub struct OcclusionMap {
     /// Draw the bands of one pose in parallel on rayon's pool (for a pose that has
     /// the cores to itself); the map ends the same either way.
     pub bands_in_parallel: bool,
-    /// The triangles reaching each band of rows, of the last draw (indices into
-    /// `setup`) and the one before (into `setup_before`).
+    /// The triangles reaching each band of rows (indices into `setup`), of every draw
+    /// since the last reset, and per band where the last draw's begin.
     bins: Vec<Vec<u32>>,
-    bins_before: Vec<Vec<u32>>,
+    bins_from: Vec<usize>,
+    /// Per band of rows, the tile columns the last draw's triangles reach there.
+    band_cols: Vec<(u32, u32)>,
     /// Per band of rows, whether a draw may have left a pixel there nonzero since it
     /// was last cleared ([`OcclusionMap::reset`] clears only those).
     dirty: Vec<bool>,
@@ -114,94 +120,73 @@ impl OcclusionMap {
             clear_dirty_bands(self);
         }
         self.setup.clear();
-        self.setup_before.clear();
         self.bins.iter_mut().for_each(Vec::clear);
-        self.bins_before.iter_mut().for_each(Vec::clear);
         self.bounded = false;
     }
 
     /// Draws the front faces of occluders `ids` (nearest first), leaving out those
-    /// already hidden: after the nearest [`CHECKPOINT`] share of them is drawn (which
-    /// bounds the map), each later occluder whose box the map already hides (the box
-    /// test, margin included) is skipped. Its fragments all lie behind what the map
-    /// holds there, which only grows nearer, so skipping it leaves the final map
-    /// exactly as drawing it would. Answers the number skipped; the map is bounded.
+    /// already hidden: they are drawn in parts of growing size ([`FIRST_PART`],
+    /// [`PART_GROWTH`]), each leaving the map bounded, and each occluder after the
+    /// first part whose box the map already hides (the box test, margin included) is
+    /// skipped. Its fragments all lie behind what the map holds there, which only
+    /// grows nearer, so skipping it leaves the final map exactly as drawing it would.
+    /// Answers the number skipped; the map is bounded.
     pub fn draw_occluders(&mut self, scene: &Scene, cam: &Camera, ids: &[u32]) -> usize {
-        let first = ids
-            .len()
-            .div_ceil(CHECKPOINT)
-            .max(MIN_BEFORE_CHECKPOINT)
-            .min(ids.len());
         let mut skipped = 0;
-        for (part, bounded) in [(&ids[..first], false), (&ids[first..], true)] {
-            // The first draw runs even without occluders: it bounds the cleared map, so
-            // that no bounds of an earlier pose remain.
-            if bounded && part.is_empty() {
-                continue;
-            }
-            if bounded {
-                self.keep_last_draw();
-            }
+        let (mut start, mut end) = (0, ids.len().min(FIRST_PART));
+        loop {
+            // The first part is drawn even without occluders: it bounds the cleared
+            // map, so that no bounds of an earlier pose remain.
+            let from = self.setup.len();
             let mut setup = std::mem::take(&mut self.setup);
-            setup.clear();
-            skipped += setup_occluders(self, scene, cam, part, bounded, &mut setup);
-            draw_binned(self, &setup);
+            skipped += setup_occluders(self, scene, cam, &ids[start..end], start > 0, &mut setup);
             self.setup = setup;
+            draw_binned(self, from);
+            if end == ids.len() {
+                return skipped;
+            }
+            start = end;
+            end = (end * PART_GROWTH).min(ids.len());
         }
-        skipped
     }
 
     /// Draws triangles into the map (the nearest fragment wins each pixel) and bounds
     /// it.
     pub fn draw(&mut self, cam: &Camera, tris: impl Iterator<Item = [Vec3; 3]>) {
-        self.keep_last_draw();
+        let from = self.setup.len();
         let mut setup = std::mem::take(&mut self.setup);
-        setup.clear();
         setup_triangles(self, cam, tris, false, &mut setup);
-        draw_binned(self, &setup);
         self.setup = setup;
+        draw_binned(self, from);
     }
 
-    /// Keeps the last draw's triangles and bins as the one before, for the next draw.
-    fn keep_last_draw(&mut self) {
-        std::mem::swap(&mut self.setup, &mut self.setup_before);
-        std::mem::swap(&mut self.bins, &mut self.bins_before);
-    }
-
-    /// Whether a triangle of the last two draws since the reset (all of
+    /// Whether a triangle drawn since the reset (all of
     /// [`OcclusionMap::draw_occluders`]' triangles, but those it left out as hidden)
     /// covers pixel `(x, y)` with its f64 `1/w` plane above `bound` there: the
     /// coverage of [`SpanTriangle::row`] (the oracle's) and the plane the oracle
     /// interpolates, without the f32 lanes' error. The triangles reaching the pixel's
     /// band of rows are asked, `hint` (the last one that answered yes: the pixels
     /// asked about one object mostly lie along the edge of one occluder) first.
-    pub fn drawn_nearer(&self, x: u32, y: u32, bound: f64, hint: &mut Option<(bool, u32)>) -> bool {
+    pub fn drawn_nearer(&self, x: u32, y: u32, bound: f64, hint: &mut Option<u32>) -> bool {
         let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
-        let covers = |t: &SpanTriangle| {
+        let covers = |i: u32| {
+            let t = &self.setup[i as usize];
             let b = &t.tri;
             (b.x0..=b.x1).contains(&x)
                 && (b.y0..=b.y1).contains(&y)
                 && t.inv_w_at(px, py) > bound
                 && t.row(y).is_some_and(|(a, z)| (a..=z).contains(&x))
         };
-        let of = |before: bool, i: u32| {
-            let tris = if before {
-                &self.setup_before
-            } else {
-                &self.setup
-            };
-            &tris[i as usize]
-        };
-        if hint.is_some_and(|(before, i)| covers(of(before, i))) {
+        if hint.is_some_and(covers) {
             return true;
         }
         let band = (y / draw::BAND) as usize;
-        for (before, bins) in [(true, &self.bins_before), (false, &self.bins)] {
-            let Some(list) = bins.get(band) else { continue };
-            if let Some(&i) = list.iter().find(|&&i| covers(of(before, i))) {
-                *hint = Some((before, i));
-                return true;
-            }
+        let Some(list) = self.bins.get(band) else {
+            return false;
+        };
+        if let Some(&i) = list.iter().find(|&&i| covers(i)) {
+            *hint = Some(i);
+            return true;
         }
         false
     }
@@ -213,23 +198,42 @@ impl OcclusionMap {
         bound_tile_rows(
             &self.inv_w[..w * self.height as usize],
             w,
+            0..self.dims[0].0 as usize,
             &mut self.far[..level0],
             &mut self.near[..level0],
         );
-        self.bound_upper_levels();
+        self.bound_upper_levels(self.all_tiles());
         self.bounded = true;
     }
 
-    /// The coarser levels of the bounds from the finest.
-    fn bound_upper_levels(&mut self) {
+    /// Every finest tile, as a rect of tiles (inclusive).
+    fn all_tiles(&self) -> TileRect {
+        let (w, h) = self.dims[0];
+        TileRect {
+            x0: 0,
+            y0: 0,
+            x1: w - 1,
+            y1: h - 1,
+        }
+    }
+
+    /// The coarser levels of the bounds over the finest tiles of `rect` (the rest
+    /// are as they were).
+    fn bound_upper_levels(&mut self, mut rect: TileRect) {
         let far = &mut self.far;
         let near = &mut self.near;
         for l in 1..self.dims.len() {
             let (w, h) = self.dims[l];
             let (cw, ch) = self.dims[l - 1];
             let (o, co) = (self.offsets[l], self.offsets[l - 1]);
-            for y in 0..h {
-                for x in 0..w {
+            rect = TileRect {
+                x0: rect.x0 / 2,
+                y0: rect.y0 / 2,
+                x1: (rect.x1 / 2).min(w - 1),
+                y1: (rect.y1 / 2).min(h - 1),
+            };
+            for y in rect.y0..=rect.y1 {
+                for x in rect.x0..=rect.x1 {
                     // As integers of the bits, as in `tile_band_bounds`.
                     let (mut f, mut n) = (f32::INFINITY.to_bits(), 0u32);
                     for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
@@ -288,6 +292,15 @@ impl OcclusionMap {
     }
 }
 
+/// A rect of tiles of one level, ends inclusive.
+#[derive(Clone, Copy, Debug)]
+struct TileRect {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+}
+
 impl TexelTest for OcclusionMap {
     /// [`OcclusionMap::rect_hidden`]'s answer for texel `(x, y)` of level `l`: from its
     /// bounds, and at the tiles those leave in doubt from their pixels.
@@ -325,31 +338,51 @@ pub fn front_facing(eye: Vec3, t: &[Vec3; 3]) -> bool {
     (t[1] - t[0]).cross(t[2] - t[0]).dot(t[0] - eye) < 0.0
 }
 
-/// The finest bounds of every tile row of `px` (whole rows of width `w`, starting at a
-/// tile row) into `far`/`near` (those tile rows' bounds, row-major).
-fn bound_tile_rows(px: &[f32], w: usize, far: &mut [f32], near: &mut [f32]) {
+/// The finest bounds of tile columns `cols` of every tile row of `px` (whole rows of
+/// width `w`, starting at a tile row) into `far`/`near` (those tile rows' bounds,
+/// row-major).
+fn bound_tile_rows(
+    px: &[f32],
+    w: usize,
+    cols: std::ops::Range<usize>,
+    far: &mut [f32],
+    near: &mut [f32],
+) {
     let t = TILE as usize;
     let tw = w.div_ceil(t);
     for (k, rows) in px.chunks(t * w).enumerate() {
         let tiles = k * tw..(k + 1) * tw;
-        tile_band_bounds(rows, w, &mut far[tiles.clone()], &mut near[tiles]);
+        tile_band_bounds(
+            rows,
+            w,
+            cols.clone(),
+            &mut far[tiles.clone()],
+            &mut near[tiles],
+        );
     }
 }
 
-/// The bounds of one band of tiles (up to [`TILE`] pixel rows of width `w`): per
+/// The bounds of tile columns `cols` of one band of tiles (up to [`TILE`] pixel rows
+/// of width `w`): per
 /// tile, the smallest and largest `1/w` under it. Compared as the integers of their
 /// bits, which order the map's values (non-negative, finite or +inf, never NaN:
 /// `draw::keep_larger`) as the floats do; integer min and max are associative, so each
 /// tile folds its rows lane-wise and then its lanes as a tree, where `f32::min`
 /// (with its NaN rule) reduced them one after another.
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
-fn tile_band_bounds(rows: &[f32], w: usize, far: &mut [f32], near: &mut [f32]) {
+fn tile_band_bounds(
+    rows: &[f32],
+    w: usize,
+    cols: std::ops::Range<usize>,
+    far: &mut [f32],
+    near: &mut [f32],
+) {
     const T: usize = TILE as usize;
     let bits = |v: f32| v.to_bits() as i32;
     // Tiles start at +inf (what `f32::min` folds from), never at bits that are a NaN.
     let inf = bits(f32::INFINITY);
     let full = w / T;
-    for tx in 0..full {
+    for tx in cols.start..cols.end.min(full) {
         let (mut lo, mut hi) = ([inf; T], [0i32; T]);
         for row in rows.chunks_exact(w) {
             let px: &[f32; T] = row[tx * T..tx * T + T].try_into().expect("a tile row");
@@ -361,7 +394,7 @@ fn tile_band_bounds(rows: &[f32], w: usize, far: &mut [f32], near: &mut [f32]) {
         far[tx] = f32::from_bits(lo.into_iter().fold(inf, i32::min) as u32);
         near[tx] = f32::from_bits(hi.into_iter().fold(0, i32::max) as u32);
     }
-    if full < far.len() {
+    if full < far.len() && cols.contains(&full) {
         let (mut lo, mut hi) = (inf, 0i32);
         for row in rows.chunks_exact(w) {
             for &v in &row[full * T..] {
@@ -567,5 +600,15 @@ mod tests {
         assert!(covered > 1000, "only {covered} pixels covered");
         assert!(seq.pixels() == par.pixels(), "pixels differ");
         assert!(seq.far == par.far && seq.near == par.near, "bounds differ");
+        // The second draw bounded only the tiles it reached: the bounds are those
+        // built from scratch.
+        let mut rebuilt = OcclusionMap::default();
+        rebuilt.reset(w, h);
+        rebuilt.inv_w.clone_from(&seq.inv_w);
+        rebuilt.build_bounds();
+        assert!(
+            seq.far == rebuilt.far && seq.near == rebuilt.near,
+            "stale bounds"
+        );
     }
 }
