@@ -147,14 +147,20 @@ pub fn hidden_masked(map: &mut MaskedMap, scene: &Scene, cam: &Camera, id: u32) 
 
 /// Whether the map lies in front of every fragment of the span by the margin (`occ`
 /// runs on to the span's [`Span::lanes_len`]; lanes past the span count as hidden).
+/// The lanes are the map draw's own ([`Span::lanes_from`]: an f64 base stepped chunk
+/// by chunk), so an occluder meets its own fragments in the map bit for bit; only the
+/// last chunk looks at how many of its lanes are in the span.
 #[inline(always)]
 fn span_hidden(occ: &[f32], s: &Span) -> bool {
     let k = 1.0 + REFINE_MARGIN;
-    // A plain loop: as `chunks_exact(..).enumerate().all(..)` it was left to an
+    let pixels = s.pixels();
+    let (full, left) = (pixels / LANES, pixels % LANES);
+    let mut lanes = s.lanes_from(0);
+    let mut chunks = occ.chunks_exact(LANES);
+    // Plain loops: as `chunks_exact(..).enumerate().all(..)` this was left to an
     // out-of-line `try_fold`, compiled without the caller's AVX2 (a tenth of a pose).
-    for (n, c) in occ.chunks_exact(LANES).enumerate() {
-        // Past the span, -1: every map value (never below 0) lies in front of it.
-        let v = s.lanes_or(n * LANES, -1.0);
+    for c in (&mut chunks).take(full) {
+        let v = lanes.next_chunk();
         let mut all = true;
         for j in 0..LANES {
             all &= c[j] > k * v[j];
@@ -163,7 +169,19 @@ fn span_hidden(occ: &[f32], s: &Span) -> bool {
             return false;
         }
     }
-    true
+    if left == 0 {
+        return true;
+    }
+    let v = lanes.next_chunk();
+    let Some(c) = chunks.next() else {
+        return false; // (never: `occ` runs on to whole chunks)
+    };
+    let mut all = true;
+    for j in 0..LANES {
+        // Past the span every lane counts as hidden; a NaN lane inside it never does.
+        all &= (j >= left) | (c[j] > k * v[j]);
+    }
+    all
 }
 
 /// Scratch buffers of the ID-buffer cull, kept from pose to pose.

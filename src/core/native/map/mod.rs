@@ -232,21 +232,26 @@ impl OcclusionMap {
                 x1: (rect.x1 / 2).min(w - 1),
                 y1: (rect.y1 / 2).min(h - 1),
             };
+            // A texel's children are rows 2y and 2y+1 and columns 2x and 2x+1, the
+            // last row or column repeated where the child level has an odd count
+            // (a min or max with itself changes nothing).
+            let (far_below, far_level) = far.split_at_mut(o);
+            let (near_below, near_level) = near.split_at_mut(o);
             for y in rect.y0..=rect.y1 {
+                let rows = [2 * y, (2 * y + 1).min(ch - 1)].map(|cy| co + (cy * cw) as usize);
+                let out = (y * w) as usize;
                 for x in rect.x0..=rect.x1 {
+                    let cols = [2 * x, (2 * x + 1).min(cw - 1)].map(|cx| cx as usize);
                     // As integers of the bits, as in `tile_band_bounds`.
-                    let (mut f, mut n) = (f32::INFINITY.to_bits(), 0u32);
-                    for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                        let (cx, cy) = (2 * x + dx, 2 * y + dy);
-                        if cx < cw && cy < ch {
-                            let j = co + (cy * cw + cx) as usize;
-                            f = f.min(far[j].to_bits());
-                            n = n.max(near[j].to_bits());
+                    let (mut f, mut n) = (u32::MAX, 0u32);
+                    for r in rows {
+                        for c in cols {
+                            f = f.min(far_below[r + c].to_bits());
+                            n = n.max(near_below[r + c].to_bits());
                         }
                     }
-                    let i = o + (y * w + x) as usize;
-                    far[i] = f32::from_bits(f);
-                    near[i] = f32::from_bits(n);
+                    far_level[out + x as usize] = f32::from_bits(f);
+                    near_level[out + x as usize] = f32::from_bits(n);
                 }
             }
         }
