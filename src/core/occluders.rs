@@ -112,23 +112,24 @@ impl OccluderDb {
         budget_triangles: u32,
         prefer: &[u32],
     ) -> OccluderSelection {
-        let mut found: Vec<(f32, u32)> = Vec::new();
+        // (not preferred, squared distance, ID): whether an occluder is preferred is
+        // looked up once, not in every comparison of the sort.
+        let mut found: Vec<(bool, f32, u32)> = Vec::new();
         self.bvh.frustum_query(cam, |slot| {
             let id = self.ids[slot as usize];
             let d = scene.objects[id as usize]
                 .aabb
                 .center()
                 .distance_squared(cam.position);
-            found.push((d, id));
+            found.push((prefer.binary_search(&id).is_err(), d, id));
         });
-        let later = |id: u32| prefer.binary_search(&id).is_err();
         found.sort_unstable_by(|a, b| {
-            (later(a.1).cmp(&later(b.1)))
-                .then(a.0.total_cmp(&b.0))
-                .then(a.1.cmp(&b.1))
+            (a.0.cmp(&b.0))
+                .then(a.1.total_cmp(&b.1))
+                .then(a.2.cmp(&b.2))
         });
         let mut sel = OccluderSelection::default();
-        for (_, id) in found {
+        for (_, _, id) in found {
             let t = scene.objects[id as usize].triangles();
             if sel.triangles + t <= budget_triangles {
                 sel.triangles += t;
