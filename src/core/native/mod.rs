@@ -54,6 +54,8 @@ pub mod map;
 pub mod masked;
 pub mod refine;
 pub mod span;
+#[cfg(test)]
+mod test_triangles;
 
 use std::cell::RefCell;
 

@@ -5,6 +5,7 @@
 use super::*;
 use crate::core::camera::look_at;
 use crate::core::hom::raster::raster_depth;
+use crate::core::native::test_triangles::random_triangles;
 use rand::{Rng, SeedableRng};
 
 #[test]
@@ -156,23 +157,8 @@ fn drawing_bands_in_parallel_gives_the_same_map_and_bounds() {
     // A width that is not a multiple of the lanes and a last band cut short.
     let (w, h) = (203u32, 150u32);
     let cam = look_at(Vec3::new(0.0, 0.5, 8.0), Vec3::ZERO, w, h);
-    let mut tri = || {
-        let c = Vec3::new(
-            rng.random_range(-6.0..6.0),
-            rng.random_range(-4.0..4.0),
-            rng.random_range(-6.0..3.0),
-        );
-        let s = rng.random_range(0.1..4.0);
-        [0, 1, 2].map(|_| {
-            c + Vec3::new(
-                rng.random_range(-s..s),
-                rng.random_range(-s..s),
-                rng.random_range(-1.0..1.0),
-            )
-        })
-    };
-    let first: Vec<[Vec3; 3]> = (0..150).map(|_| tri()).collect();
-    let second: Vec<[Vec3; 3]> = (0..10).map(|_| tri()).collect();
+    let first = random_triangles(&mut rng, 150);
+    let second = random_triangles(&mut rng, 10);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(3)
         .build()

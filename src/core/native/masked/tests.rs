@@ -5,26 +5,7 @@ use super::*;
 use crate::core::camera::look_at;
 use crate::core::native::map::OcclusionMap;
 use crate::core::native::span::span_triangles;
-
-fn random_triangles(rng: &mut impl Rng, n: usize) -> Vec<[Vec3; 3]> {
-    (0..n)
-        .map(|_| {
-            let c = Vec3::new(
-                rng.random_range(-6.0..6.0),
-                rng.random_range(-4.0..4.0),
-                rng.random_range(-6.0..3.0),
-            );
-            let s = rng.random_range(0.1..4.0);
-            [0, 1, 2].map(|_| {
-                c + Vec3::new(
-                    rng.random_range(-s..s),
-                    rng.random_range(-s..s),
-                    rng.random_range(-1.0..1.0),
-                )
-            })
-        })
-        .collect()
-}
+use crate::core::native::test_triangles::random_triangles;
 
 fn draw_both(cam: &Camera, tris: &[[Vec3; 3]]) -> (MaskedMap, OcclusionMap) {
     let mut masked = MaskedMap::default();
