@@ -231,11 +231,9 @@ pub(super) fn draw_binned(map: &mut OcclusionMap, from: usize) {
     map.bins_from = bins_from;
     map.band_cols = band_cols;
     let rect = if bounded { drawn } else { map.all_tiles() };
+    // (The last band's tile rows may run past the map's: each level clamps its rect.)
     if rect.x0 <= rect.x1 {
-        map.bound_upper_levels(TileRect {
-            y1: rect.y1.min(map.dims[0].1 - 1),
-            ..rect
-        });
+        map.bound_upper_levels(rect);
     }
     map.bounded = true;
 }
