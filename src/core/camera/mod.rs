@@ -96,6 +96,13 @@ fn finite(name: &'static str, v: &[f32]) -> Result<(), PoseError> {
 }
 
 impl Camera {
+    /// Whether this camera and `other` share one occluder selection camera: the eyes
+    /// of one stereo pose ([`Camera::selection`]).
+    pub fn shares_selection(&self, other: &Camera) -> bool {
+        matches!((&self.selection, &other.selection),
+            (Some(a), Some(b)) if Arc::ptr_eq(a, b))
+    }
+
     /// Validates a wire pose and builds its camera.
     pub fn new(pose: &Pose) -> Result<Self, PoseError> {
         finite("position", &pose.position)?;

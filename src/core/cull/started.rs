@@ -114,11 +114,7 @@ fn plan_all(
 ) -> Vec<PosePlan> {
     use rayon::prelude::*;
     let prefer_of = |k: usize| prefer.get(k).copied().unwrap_or(&[]);
-    let shares_previous = |k: usize| {
-        k > 0
-            && matches!((&cams[k - 1].selection, &cams[k].selection),
-                (Some(a), Some(b)) if std::sync::Arc::ptr_eq(a, b))
-    };
+    let shares_previous = |k: usize| k > 0 && cams[k - 1].shares_selection(&cams[k]);
     // The first camera of each run chooses; the others take its choice.
     let leaders: Vec<usize> = (0..cams.len())
         .filter(|&k| cams[k].selection.is_some() && !shares_previous(k))

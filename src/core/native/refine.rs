@@ -23,7 +23,7 @@
 
 use super::map::{OcclusionMap, front_facing};
 use super::masked::MaskedMap;
-use super::span::{LANES, Span, SpanTriangle, padded_len, span_triangles};
+use super::span::{LANES, ROWS, Span, SpanTriangle, padded_len, span_triangles};
 use crate::core::camera::Camera;
 use crate::core::cull::{empty_mask, set_bit};
 use crate::core::scene::Scene;
@@ -67,7 +67,6 @@ const OWN_FRAGMENT: f32 = 5e-7;
 /// (Compiled per SIMD level, like every loop here that cuts triangles into spans.)
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 pub fn hidden_per_pixel(map: &OcclusionMap, scene: &Scene, cam: &Camera, id: u32) -> bool {
-    let rows = (0, cam.height - 1);
     let w = cam.width as usize;
     let o = &scene.objects[id as usize];
     let mut hint = None;
@@ -78,13 +77,39 @@ pub fn hidden_per_pixel(map: &OcclusionMap, scene: &Scene, cam: &Camera, id: u32
             if map.triangle_hidden(t, REFINE_MARGIN as f64) {
                 return true;
             }
-            t.spans(rows, |y, s| {
-                let at = y as usize * w + s.x0 as usize;
-                let occ = &map.pixels_with_padding()[at..at + s.lanes_len()];
-                span_hidden(occ, &s) || near_ties_hidden(map, occ, &s, t, y, &mut hint)
-            })
+            spans_hidden(map, t, w, &mut hint)
         })
     })
+}
+
+/// Whether every fragment of `t` lies behind the map ([`hidden_per_pixel`]), its rows
+/// [`ROWS`] at a time: a block the finest tile bounds show hidden by the margin
+/// ([`OcclusionMap::rows_hidden`]) is settled without its pixels, the others span by
+/// span. The answer is the per-pixel one: bounds in front of a block's nearest
+/// fragment by the margin put every pixel under them in front of each fragment.
+#[inline(always)]
+fn spans_hidden(map: &OcclusionMap, t: &SpanTriangle, w: usize, hint: &mut Option<u32>) -> bool {
+    let (y0, y1) = (t.tri.y0, t.tri.y1);
+    for block in (y0 - y0 % ROWS as u32..=y1).step_by(ROWS) {
+        let rows = t.row_block(block, (y0, y1));
+        if map.rows_hidden(t, block, &rows, REFINE_MARGIN as f64) {
+            continue;
+        }
+        let (first, last) = rows;
+        for r in 0..ROWS {
+            if first[r] > last[r] {
+                continue;
+            }
+            let y = block + r as u32;
+            let s = t.span(y, first[r] as u32, last[r] as u32);
+            let at = y as usize * w + s.x0 as usize;
+            let occ = &map.pixels_with_padding()[at..at + s.lanes_len()];
+            if !(span_hidden(occ, &s) || near_ties_hidden(map, occ, &s, t, y, hint)) {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 /// The slow path of a span [`span_hidden`] did not show hidden: true if each of its

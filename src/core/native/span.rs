@@ -173,6 +173,37 @@ impl SpanTriangle {
         (self.tri.x1 - self.tri.x0 + 1) * (self.tri.y1 - self.tri.y0 + 1)
     }
 
+    /// The span of pixels `x0..=x1` of row `y` (pixels the triangle covers there).
+    #[inline(always)]
+    pub fn span(&self, y: u32, x0: u32, x1: u32) -> Span {
+        Span {
+            x0,
+            x1,
+            start: self.inv_w_at(x0 as f64 + 0.5, y as f64 + 0.5),
+            slope: self.slope,
+        }
+    }
+
+    /// A bound on the `1/w` of every fragment the triangle has in the pixel rect
+    /// `x0..=x1` × `y0..=y1`, as [`SpanTriangle::bounds`]' over the whole triangle:
+    /// the plane's largest value at a pixel centre of the rect (a plane is largest at
+    /// a corner), widened by [`LANE_SLACK`], and never above the whole triangle's.
+    #[inline(always)]
+    pub fn nearest_in(&self, (x0, x1): (u32, u32), (y0, y1): (u32, u32)) -> f64 {
+        let v0 = self.tri.v[0];
+        let larger = |slope: f64, a: u32, b: u32, from: f64| {
+            let (a, b) = (
+                slope * (a as f64 + 0.5 - from),
+                slope * (b as f64 + 0.5 - from),
+            );
+            if a > b { a } else { b }
+        };
+        let m = v0.inv_w + larger(self.slope, x0, x1, v0.x) + larger(self.slope_y, y0, y1, v0.y);
+        let rect = m + m.abs() * LANE_SLACK;
+        let whole = self.bounds().1;
+        if rect < whole { rect } else { whole }
+    }
+
     /// Calls `f(y, span)` for every row in `rows` (inclusive) the triangle covers;
     /// stops, answering false, when `f` does.
     #[inline(always)]
@@ -190,15 +221,8 @@ impl SpanTriangle {
                 if lo[r] > hi[r] {
                     continue;
                 }
-                let (y, x0, x1) = (block + r as u32, lo[r] as u32, hi[r] as u32);
-                let start = self.inv_w_at(x0 as f64 + 0.5, y as f64 + 0.5);
-                let span = Span {
-                    x0,
-                    x1,
-                    start,
-                    slope: self.slope,
-                };
-                if !f(y, span) {
+                let y = block + r as u32;
+                if !f(y, self.span(y, lo[r] as u32, hi[r] as u32)) {
                     return false;
                 }
             }

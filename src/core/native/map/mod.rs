@@ -24,13 +24,15 @@ use glam::Vec3;
 mod draw;
 
 use super::descent::{self, Texel, TexelTest};
-use super::span::{SpanTriangle, padded_len};
+use super::span::{ROWS, SpanTriangle, padded_len};
 use crate::core::camera::{Camera, ScreenRect};
 use crate::core::scene::Scene;
 use draw::{clear_dirty_bands, draw_binned, setup_occluders, setup_triangles};
 
 /// Side of the pyramid's finest texels, in pixels.
 pub const TILE: u32 = 8;
+// A block of span rows (`span::ROWS`, from a multiple of it) lies in one row of tiles.
+const _: () = assert!(TILE.is_multiple_of(ROWS as u32));
 
 /// [`OcclusionMap::draw_occluders`] draws the occluders in parts of growing size and
 /// bounds the map after each: the nearest [`FIRST_PART`], then parts each ending at
@@ -266,6 +268,38 @@ impl OcclusionMap {
     pub fn triangle_hidden(&self, t: &SpanTriangle, margin: f64) -> bool {
         let (r, nearest) = t.bounds();
         self.rect_hidden(&r, (nearest * (1.0 + margin)) as f32)
+    }
+
+    /// True if the finest tile bounds show the spans `first[r]..=last[r]` of the
+    /// [`ROWS`] rows from `y` (first > last: none), all in one row of tiles, of
+    /// triangle `t` hidden by the relative `margin`: every tile they reach lies in
+    /// front of the largest `1/w` the triangle has over those pixels
+    /// ([`SpanTriangle::nearest_in`]) by it. Answers false for a block of no span.
+    #[inline(always)]
+    pub fn rows_hidden(
+        &self,
+        t: &SpanTriangle,
+        y: u32,
+        (first, last): &([i32; ROWS], [i32; ROWS]),
+        margin: f64,
+    ) -> bool {
+        let (mut a, mut b) = (i32::MAX, -1);
+        for r in 0..ROWS {
+            if first[r] <= last[r] {
+                a = a.min(first[r]);
+                b = b.max(last[r]);
+            }
+        }
+        if a > b {
+            return false;
+        }
+        let (a, b) = (a as u32, b as u32);
+        let nearest = t.nearest_in((a, b), (y, y + ROWS as u32 - 1));
+        let threshold = (nearest * (1.0 + margin)) as f32;
+        let row = (y / TILE * self.dims[0].0) as usize;
+        let tiles = &self.far[row + (a / TILE) as usize..=row + (b / TILE) as usize];
+        // NaN fails every comparison.
+        tiles.iter().fold(true, |all, &f| all & (f > threshold))
     }
 
     /// True if every pixel of `r` holds a `1/w` above `t` (the map was bounded by

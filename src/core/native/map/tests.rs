@@ -1,10 +1,11 @@
 //! Tests of the occlusion map: against the reference depth map, its rect test against
 //! every pixel, reused from pose to pose, drawn band by band in parallel and drawn
-//! again on bounds it left.
+//! again on bounds it left, and its rows test against every lane.
 
 use super::*;
 use crate::core::camera::look_at;
 use crate::core::hom::raster::raster_depth;
+use crate::core::native::span::LANES;
 use crate::core::native::test_triangles::random_triangles;
 use rand::{Rng, SeedableRng};
 
@@ -188,5 +189,60 @@ fn drawing_bands_in_parallel_gives_the_same_map_and_bounds() {
     assert!(
         seq.far == rebuilt.far && seq.near == rebuilt.near,
         "stale bounds"
+    );
+}
+
+#[test]
+fn rows_the_bounds_hide_hide_every_lane_of_their_spans() {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let (w, h) = (160u32, 96u32);
+    let cam = look_at(Vec3::new(0.0, 0.5, 8.0), Vec3::ZERO, w, h);
+    let mut map = OcclusionMap::default();
+    map.reset(w, h);
+    map.draw(&cam, random_triangles(&mut rng, 100).into_iter());
+    let margin = 1e-5;
+    let (mut blocks, mut hidden) = (0, 0);
+    for tri in random_triangles(&mut rng, 300) {
+        crate::core::native::span::span_triangles(&cam, tri, |t| {
+            let (y0, y1) = (t.tri.y0, t.tri.y1);
+            for block in (y0 - y0 % ROWS as u32..=y1).step_by(ROWS) {
+                let rows = t.row_block(block, (y0, y1));
+                let by_bounds = map.rows_hidden(t, block, &rows, margin);
+                let (first, last) = rows;
+                let (mut lanes_hidden, mut any) = (true, false);
+                for r in 0..ROWS {
+                    if first[r] > last[r] {
+                        continue;
+                    }
+                    any = true;
+                    let y = block + r as u32;
+                    let s = t.span(y, first[r] as u32, last[r] as u32);
+                    let nearest = t.nearest_in((first[r] as u32, last[r] as u32), (y, y)) as f32;
+                    let mut lanes = s.lanes_from(0);
+                    for i in (0..s.pixels()).step_by(LANES) {
+                        let v = lanes.next_chunk();
+                        for (k, &v) in v.iter().enumerate().take(s.pixels() - i) {
+                            assert!(v <= nearest, "a lane above the rect's bound");
+                            let x = (s.x0 as usize + i + k) as u32;
+                            let m = map.pixels()[(y * w + x) as usize];
+                            lanes_hidden &= m > (1.0 + margin as f32) * v;
+                        }
+                    }
+                }
+                blocks += any as u32;
+                if by_bounds {
+                    assert!(
+                        lanes_hidden,
+                        "rows {block}.. called hidden with a lane in front"
+                    );
+                    hidden += 1;
+                }
+            }
+            true
+        });
+    }
+    assert!(
+        blocks > 1000 && hidden > 50,
+        "{hidden} of {blocks} blocks hidden: the test says little"
     );
 }
