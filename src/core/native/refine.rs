@@ -23,7 +23,7 @@
 
 use super::map::{OcclusionMap, front_facing};
 use super::masked::MaskedMap;
-use super::span::{LANES, ROWS, Span, SpanTriangle, padded_len, span_triangles};
+use super::span::{LANES, Span, SpanTriangle, padded_len, span_triangles};
 use crate::core::camera::Camera;
 use crate::core::cull::{empty_mask, set_bit};
 use crate::core::scene::Scene;
@@ -83,33 +83,19 @@ pub fn hidden_per_pixel(map: &OcclusionMap, scene: &Scene, cam: &Camera, id: u32
 }
 
 /// Whether every fragment of `t` lies behind the map ([`hidden_per_pixel`]), its rows
-/// [`ROWS`] at a time: a block the finest tile bounds show hidden by the margin
+/// [`ROWS`](super::span::ROWS) at a time: a block the finest tile bounds show hidden by the margin
 /// ([`OcclusionMap::rows_hidden`]) is settled without its pixels, the others span by
 /// span. The answer is the per-pixel one: bounds in front of a block's nearest
 /// fragment by the margin put every pixel under them in front of each fragment.
 #[inline(always)]
 fn spans_hidden(map: &OcclusionMap, t: &SpanTriangle, w: usize, hint: &mut Option<u32>) -> bool {
-    let (y0, y1) = (t.tri.y0, t.tri.y1);
-    for block in (y0 - y0 % ROWS as u32..=y1).step_by(ROWS) {
-        let rows = t.row_block(block, (y0, y1));
-        if map.rows_hidden(t, block, &rows, REFINE_MARGIN as f64) {
-            continue;
-        }
-        let (first, last) = rows;
-        for r in 0..ROWS {
-            if first[r] > last[r] {
-                continue;
-            }
-            let y = block + r as u32;
-            let s = t.span(y, first[r] as u32, last[r] as u32);
-            let at = y as usize * w + s.x0 as usize;
-            let occ = &map.pixels_with_padding()[at..at + s.lanes_len()];
-            if !(span_hidden(occ, &s) || near_ties_hidden(map, occ, &s, t, y, hint)) {
-                return false;
-            }
-        }
-    }
-    true
+    let rows = (t.tri.y0, t.tri.y1);
+    let settled = |y, ends| map.rows_hidden(t, y, ends, REFINE_MARGIN as f64);
+    t.spans_unsettled(rows, settled, |y, s| {
+        let at = y as usize * w + s.x0 as usize;
+        let occ = &map.pixels_with_padding()[at..at + s.lanes_len()];
+        span_hidden(occ, &s) || near_ties_hidden(map, occ, &s, t, y, hint)
+    })
 }
 
 /// The slow path of a span [`span_hidden`] did not show hidden: true if each of its

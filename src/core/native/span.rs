@@ -207,7 +207,20 @@ impl SpanTriangle {
     /// Calls `f(y, span)` for every row in `rows` (inclusive) the triangle covers;
     /// stops, answering false, when `f` does.
     #[inline(always)]
-    pub fn spans(&self, rows: (u32, u32), mut f: impl FnMut(u32, Span) -> bool) -> bool {
+    pub fn spans(&self, rows: (u32, u32), f: impl FnMut(u32, Span) -> bool) -> bool {
+        self.spans_unsettled(rows, |_, _| false, f)
+    }
+
+    /// [`SpanTriangle::spans`], asking `settled(y, ends)` first of each block of
+    /// [`ROWS`] rows from `y` (its [`SpanTriangle::row_block`] ends): a block it
+    /// answers true for is passed over without its spans.
+    #[inline(always)]
+    pub fn spans_unsettled(
+        &self,
+        rows: (u32, u32),
+        mut settled: impl FnMut(u32, ([i32; ROWS], [i32; ROWS])) -> bool,
+        mut f: impl FnMut(u32, Span) -> bool,
+    ) -> bool {
         let y0 = self.tri.y0.max(rows.0);
         let y1 = self.tri.y1.min(rows.1);
         if y0 > y1 {
@@ -216,7 +229,11 @@ impl SpanTriangle {
         // Blocks start at multiples of ROWS, so that a triangle drawn band by band
         // (`map/draw.rs`) computes each of its rows once.
         for block in (y0 - y0 % ROWS as u32..=y1).step_by(ROWS) {
-            let (lo, hi) = self.row_block(block, (y0, y1));
+            let ends = self.row_block(block, (y0, y1));
+            if settled(block, ends) {
+                continue;
+            }
+            let (lo, hi) = ends;
             for r in 0..ROWS {
                 if lo[r] > hi[r] {
                     continue;

@@ -280,7 +280,7 @@ impl OcclusionMap {
         &self,
         t: &SpanTriangle,
         y: u32,
-        (first, last): &([i32; ROWS], [i32; ROWS]),
+        (first, last): ([i32; ROWS], [i32; ROWS]),
         margin: f64,
     ) -> bool {
         let (mut a, mut b) = (i32::MAX, -1);

@@ -207,7 +207,7 @@ fn rows_the_bounds_hide_hide_every_lane_of_their_spans() {
             let (y0, y1) = (t.tri.y0, t.tri.y1);
             for block in (y0 - y0 % ROWS as u32..=y1).step_by(ROWS) {
                 let rows = t.row_block(block, (y0, y1));
-                let by_bounds = map.rows_hidden(t, block, &rows, margin);
+                let by_bounds = map.rows_hidden(t, block, rows, margin);
                 let (first, last) = rows;
                 let (mut lanes_hidden, mut any) = (true, false);
                 for r in 0..ROWS {
