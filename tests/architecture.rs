@@ -27,7 +27,7 @@ const CORE: [&str; 14] = [
     "occluders",
     "cull",
     "dynamic",
-    "hom",
+    "reference",
     "native",
     "gpu",
     "engine",
@@ -328,7 +328,7 @@ fn the_checker_sees_references() {
         "batch.rs implements Culler"
     );
     assert!(
-        has("core::hom::test", "core::cull::deb"),
+        has("core::reference::test", "core::cull::deb"),
         "the box test reads the DEB"
     );
     assert!(has("server::worker", "core::engine"), "jobs hold engines");

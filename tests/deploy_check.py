@@ -72,7 +72,7 @@ CONTRACT: dict[str, tuple[str, str | None]] = {
     "HOMCULL_MAX_WS_CLIENTS": ("uint", "1000"),
     "HOMCULL_WS_MAX_FPS": ("number", "120"),
     "HOMCULL_FULL_EVERY": ("uint", "120"),
-    "HOMCULL_GPU_BATCH": ("uint", "64"),
+    "HOMCULL_CULL_BATCH": ("uint", "64"),
     "HOMCULL_QUEUE": ("uint", "4096"),
     "HOMCULL_NO_BATCHING": ("bool", None),
     "HOMCULL_REQUEST_TIMEOUT_S": ("uint", "60"),

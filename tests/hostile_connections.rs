@@ -2,7 +2,7 @@
 //! are closed after the header timeout; one address holds at most its cap of
 //! connections and streams (429 past it); a WebSocket client that stops reading is
 //! dropped within the send timeout although its frames still fit the kernel's buffers;
-//! an upload over its load budget is refused and never stored; a GPU worker that dies
+//! an upload over its load budget is refused and never stored; a cull worker that dies
 //! is restarted, and one that dies too often makes `/readyz` say so and the server
 //! stop with an error.
 
@@ -264,6 +264,6 @@ async fn a_worker_that_keeps_dying_stops_the_server_with_an_error() {
     let t = Instant::now();
     let ended = srv.ended(Duration::from_secs(20)).await;
     let err = ended.expect_err("the server must stop with an error");
-    assert!(err.to_string().contains("GPU worker"), "{err}");
+    assert!(err.to_string().contains("cull worker"), "{err}");
     assert!(t.elapsed() < Duration::from_secs(15));
 }

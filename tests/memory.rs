@@ -189,7 +189,7 @@ async fn a_resident_scene_costs_at_most_four_times_its_glb() {
         .unwrap();
     assert_eq!(r.status(), 200, "batch cull: {}", r.text().await.unwrap());
     let grew = settled_rss(pid).await.saturating_sub(before);
-    let layout = homcull::core::hom::pyramid::LevelLayout::new(960, 540);
+    let layout = homcull::core::reference::pyramid::LevelLayout::new(960, 540);
     let pixels = 960 * 540;
     let targets = 16 * (pixels * 8 + (layout.total as u64 - pixels) * 8);
     eprintln!(

@@ -1,7 +1,7 @@
 //! The native CPU backend (`core::native`) against the exact oracle.
 //!
 //! - Random scenes (property test): zero false culls against the CPU oracle twin
-//!   (`hom::oracle`, the reference's exact-arithmetic ID buffer), for the refined
+//!   (`reference::oracle`, the reference's exact-arithmetic ID buffer), for the refined
 //!   test and the box test alone with each DEB, on both maps; the backend's own `exact` equals the
 //!   twin's.
 //! - Every shared scene and the demo city, sampled street-level poses at 960×540,
@@ -27,7 +27,7 @@ use homcull::core::cull::{
 };
 use homcull::core::geom::Aabb;
 use homcull::core::gpu::GpuBackend;
-use homcull::core::hom::ReferenceBackend;
+use homcull::core::reference::ReferenceBackend;
 use homcull::core::native::map::{OcclusionMap, front_facing};
 use homcull::core::native::{MaskedBackend, NativeBackend};
 use homcull::core::occluders::OccluderParams;

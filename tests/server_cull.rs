@@ -65,7 +65,7 @@ async fn culls_pyramid_and_occluders() {
     let levels = pyr["levels"].as_array().expect("levels");
     assert_eq!(
         levels.len(),
-        homcull::core::hom::pyramid::LevelLayout::new(320, 180).levels()
+        homcull::core::reference::pyramid::LevelLayout::new(320, 180).levels()
     );
     assert_eq!(
         (levels[0]["width"].as_u64(), levels[0]["height"].as_u64()),
@@ -124,12 +124,12 @@ async fn culls_pyramid_and_occluders() {
 }
 
 /// Under load the worker records a batch while the device runs the one before (a
-/// batch request longer than `gpu_batch` always does: its chunks are started one
+/// batch request longer than `cull_batch` always does: its chunks are started one
 /// after another), and every answer is still the one a pose gets alone: concurrent
 /// batches of mixed options, each split into chunks, against single-pose culls.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn batches_recorded_while_the_device_runs_others_answer_as_single_poses() {
-    let srv = TestServer::start(|c| c.gpu_batch = 4).await;
+    let srv = TestServer::start(|c| c.cull_batch = 4).await;
     let http = reqwest::Client::new();
     let poses = street_walk(10, [160, 90]);
     let body = |refine: bool| {

@@ -9,7 +9,7 @@ use common::ws::connect_hello;
 use homcull::core::camera::Camera;
 use homcull::core::cull::{CullSettings, Culler, PreparedScene, has_bit, plan};
 use homcull::core::engine::Backend;
-use homcull::core::hom::ReferenceBackend;
+use homcull::core::reference::ReferenceBackend;
 use homcull::core::occluders::OccluderParams;
 use homcull::core::scene::demo_city;
 use homcull_proto::{CullOptions, CullResponse, Method};

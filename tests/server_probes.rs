@@ -51,8 +51,8 @@ async fn probes_docs_and_metrics_answer() {
         "homcull_http_requests_total",
         "homcull_http_request_seconds",
         "homcull_culls_total",
-        "homcull_gpu_batch_poses",
-        "homcull_gpu_batch_seconds",
+        "homcull_cull_batch_poses",
+        "homcull_cull_batch_seconds",
     ] {
         assert!(metrics.contains(name), "metrics lack {name}");
     }

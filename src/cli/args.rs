@@ -16,7 +16,7 @@ use crate::server::{AuthScope, Config};
 #[command(
     name = "homcull",
     version,
-    about = "Occlusion culling with Hierarchical Occlusion Maps on wgpu"
+    about = "Occlusion culling with Hierarchical Occlusion Maps, on a wgpu device or the CPU"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -202,10 +202,11 @@ pub struct ServeArgs {
     /// A full frame at least every N frames (deltas in between).
     #[arg(long, env = "HOMCULL_FULL_EVERY", default_value_t = Config::default().full_every)]
     pub full_every: u32,
-    /// Most poses the GPU worker runs in one submission.
-    #[arg(long, env = "HOMCULL_GPU_BATCH", default_value_t = Config::default().gpu_batch)]
-    pub gpu_batch: usize,
-    /// Jobs waiting for the GPU worker before requests are refused with 503.
+    /// Most poses the cull worker runs in one batch (one submission on a GPU) [default:
+    /// 64]. `--gpu-batch` and `HOMCULL_GPU_BATCH` are its old names.
+    #[arg(long, visible_alias = "gpu-batch", env = "HOMCULL_CULL_BATCH", value_name = "N")]
+    pub cull_batch: Option<usize>,
+    /// Jobs waiting for the cull worker before requests are refused with 503.
     #[arg(long, env = "HOMCULL_QUEUE", default_value_t = Config::default().queue)]
     pub queue: usize,
     /// Run every pose in its own submission (for measuring what batching buys).
@@ -274,7 +275,7 @@ pub struct ServeArgs {
     /// cap); more are answered 429. Behind a proxy every client shares its address.
     #[arg(long, env = "HOMCULL_MAX_CONNECTIONS_PER_ADDRESS", default_value_t = Config::default().max_connections_per_address)]
     pub max_connections_per_address: usize,
-    /// Restarts of the GPU worker after a panic before the server exits non-zero.
+    /// Restarts of the cull worker after a panic before the server exits non-zero.
     #[arg(long, env = "HOMCULL_WORKER_RESTARTS", default_value_t = Config::default().worker_restarts)]
     pub worker_restarts: u32,
 }
@@ -293,8 +294,17 @@ impl Default for ServeArgs {
 
 impl ServeArgs {
     /// The server's configuration from these flags (everything but the address).
-    pub fn config(&self) -> Config {
-        Config {
+    /// Fails only on a malformed `HOMCULL_GPU_BATCH`, the old name of
+    /// `HOMCULL_CULL_BATCH`, which clap does not read.
+    pub fn config(&self) -> Result<Config, String> {
+        let cull_batch = match (self.cull_batch, std::env::var(LEGACY_CULL_BATCH_ENV)) {
+            (Some(n), _) => n,
+            (None, Ok(v)) => v.trim().parse().map_err(|e| {
+                format!("{LEGACY_CULL_BATCH_ENV}=`{v}` (the old name of HOMCULL_CULL_BATCH): {e}")
+            })?,
+            (None, Err(_)) => Config::default().cull_batch,
+        };
+        Ok(Config {
             data_dir: self.data_dir.clone(),
             api_token: self.api_token.clone(),
             auth: match self.auth {
@@ -308,7 +318,7 @@ impl ServeArgs {
             max_ws_clients: self.max_ws_clients,
             ws_max_fps: self.ws_max_fps,
             full_every: self.full_every,
-            gpu_batch: self.gpu_batch,
+            cull_batch,
             queue: self.queue,
             no_batching: self.no_batching,
             request_timeout_s: self.request_timeout_s,
@@ -328,9 +338,12 @@ impl ServeArgs {
             max_connections_per_address: self.max_connections_per_address,
             worker_restarts: self.worker_restarts,
             worker_panics: 0,
-        }
+        })
     }
 }
+
+/// The old name of `HOMCULL_CULL_BATCH`, still read when the new one is unset.
+const LEGACY_CULL_BATCH_ENV: &str = "HOMCULL_GPU_BATCH";
 
 #[derive(Debug, Args)]
 pub struct HealthcheckArgs {

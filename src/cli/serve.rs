@@ -14,7 +14,7 @@ pub fn run(a: ServeArgs) -> Result<()> {
         let listener = tokio::net::TcpListener::bind(a.addr)
             .await
             .with_context(|| format!("listening on {}", a.addr))?;
-        let config = a.config();
+        let config = a.config().map_err(anyhow::Error::msg)?;
         let data_dir = config.data_dir.display().to_string();
         crate::server::serve(listener, config, backend, crate::server::shutdown_signal())
             .await

@@ -6,7 +6,7 @@
 //! adapter if one opens and the native CPU backend otherwise, and a software Vulkan
 //! adapter (lavapipe) only when asked for: `--backend gpu`, or
 //! `HOMCULL_REQUIRE_GPU=1`, which makes `auto` mean `gpu`. The CPU reference
-//! (`core::hom`) is a backend for tests, never chosen by these. Every scene's
+//! (`core::reference`) is a backend for tests, never chosen by these. Every scene's
 //! [`Engine`] builds its own [`Culler`] from the choice.
 
 use std::sync::{Arc, Mutex};
@@ -19,7 +19,7 @@ use crate::core::cull::{
 };
 use crate::core::dynamic::{Dynamics, snapshot};
 use crate::core::gpu::{GpuBackend, GpuContext, GpuError, require_gpu};
-use crate::core::hom::ReferenceBackend;
+use crate::core::reference::ReferenceBackend;
 use crate::core::native::NativeBackend;
 use crate::core::occluders::OccluderParams;
 use crate::core::scene::Scene;

@@ -10,7 +10,7 @@
 //!   settings, the per-pose plan, pass times and errors.
 //! - [`dynamic`]: moving objects: placements writers send, scene versions, and the
 //!   temporal bounding volumes of objects in motion.
-//! - [`hom`]: the CPU reference backend, the algorithm pass by pass; every GPU pass's
+//! - [`reference`]: the CPU reference backend, the algorithm pass by pass; every GPU pass's
 //!   twin and test oracle.
 //! - [`native`]: the native CPU backend, the same algorithm as spans and tile bounds,
 //!   fast enough to serve from CPU cores.
@@ -28,11 +28,11 @@ pub mod dynamic;
 pub mod engine;
 pub mod geom;
 pub mod gpu;
-pub mod hom;
 pub mod lod;
 pub mod native;
 pub mod occluders;
 pub mod pvs;
+pub mod reference;
 pub mod resident;
 pub mod sampler;
 pub mod scene;

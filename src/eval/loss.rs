@@ -21,9 +21,9 @@ use rayon::prelude::*;
 
 use crate::core::camera::Camera;
 use crate::core::cull::{CullSettings, PreparedScene, has_bit, plan};
-use crate::core::hom::ReferenceBackend;
-use crate::core::hom::pyramid::{self, LevelLayout};
-use crate::core::hom::refine::hidden_per_pixel;
+use crate::core::reference::ReferenceBackend;
+use crate::core::reference::pyramid::{self, LevelLayout};
+use crate::core::reference::refine::hidden_per_pixel;
 
 /// Object counts summed over poses.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]

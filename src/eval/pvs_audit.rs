@@ -20,7 +20,7 @@ use std::collections::HashSet;
 use glam::Vec3;
 
 use crate::core::camera::Camera;
-use crate::core::hom::raster::raster_ids;
+use crate::core::reference::raster::raster_ids;
 use crate::core::pvs::Pvs;
 use crate::core::scene::{Object, Scene};
 

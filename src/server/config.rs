@@ -42,7 +42,7 @@ pub struct Config {
     /// A full frame at least every N frames (deltas in between).
     pub full_every: u32,
     /// Most poses the worker runs in one submission.
-    pub gpu_batch: usize,
+    pub cull_batch: usize,
     /// Jobs waiting for the worker before requests are refused with 503.
     pub queue: usize,
     /// Run every pose in its own submission (for measuring what batching buys).
@@ -85,10 +85,10 @@ pub struct Config {
     /// Most open connections and WebSocket streams together from one address (0: no
     /// cap); more are answered 429.
     pub max_connections_per_address: usize,
-    /// Restarts of the GPU worker after a panic before it stays stopped (then `/readyz`
+    /// Restarts of the cull worker after a panic before it stays stopped (then `/readyz`
     /// answers 503 and the server exits non-zero).
     pub worker_restarts: u32,
-    /// Fault injection for tests: the GPU worker panics on its first this many batches.
+    /// Fault injection for tests: the cull worker panics on its first this many batches.
     /// 0 in service; no flag sets it.
     pub worker_panics: u32,
 }
@@ -117,7 +117,7 @@ impl Default for Config {
             max_ws_clients: 1000,
             ws_max_fps: 120.0,
             full_every: 120,
-            gpu_batch: 64,
+            cull_batch: 64,
             queue: 4096,
             no_batching: false,
             request_timeout_s: 60,

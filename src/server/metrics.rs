@@ -2,8 +2,8 @@
 //! times every request by route.
 //!
 //! Metric names (all prefixed `homcull_`): `http_requests_total{route,status}`,
-//! `http_request_seconds{route}`, `culls_total{method}`, `gpu_batch_poses`,
-//! `gpu_batch_seconds`, `worker_queue`, `worker_rejected_total`, `ws_clients`,
+//! `http_request_seconds{route}`, `culls_total{method}`, `cull_batch_poses`,
+//! `cull_batch_seconds`, `worker_queue`, `worker_rejected_total`, `ws_clients`,
 //! `ws_frames_total{kind}`, `ws_frame_bytes_total{kind}`, `ws_dropped_poses_total`,
 //! `ws_bad_frames_total`, `scenes`.
 

@@ -1,8 +1,8 @@
-//! The network face of homcull: an axum app over resident scenes and one GPU worker.
+//! The network face of homcull: an axum app over resident scenes and one cull worker.
 //!
 //! - [`routes`]: REST (`/healthz`, `/readyz`, `/metrics`, `/v1/scenes/...`).
 //! - [`ws`]: WebSocket streaming with binary frames, deltas and latest-pose-wins.
-//! - [`worker`]: the one GPU worker that batches every waiting pose into one submission.
+//! - [`worker`]: the one cull worker that batches every waiting pose into one submission.
 //! - [`config`]: [`Config`], every limit and setting, with its defaults.
 //! - [`state`]: the registry of resident scenes and shared state; [`scenes`]: how
 //!   scenes enter and leave it; [`store`]: the data directory; [`scene_files`]: scenes
@@ -228,7 +228,7 @@ fn start(config: Config, backend: Backend) -> std::io::Result<(AppState, watch::
     };
     let worker = worker::spawn(
         config.queue,
-        config.gpu_batch,
+        config.cull_batch,
         !config.no_batching,
         supervision,
     );
@@ -281,13 +281,13 @@ fn start(config: Config, backend: Backend) -> std::io::Result<(AppState, watch::
     Ok((state, shutdown_tx))
 }
 
-/// How long a server whose GPU worker stopped for good keeps answering (`/readyz` 503,
+/// How long a server whose cull worker stopped for good keeps answering (`/readyz` 503,
 /// culls 503) before it drains and exits.
 const WORKER_DEATH_NOTICE: Duration = Duration::from_secs(2);
 
 /// Serves `listener` until `shutdown` resolves, then drains: no new connections,
 /// in-flight requests finish, WebSockets get a close frame. Gives up after the
-/// configured grace period. Returns an error if the GPU worker stops for good (see
+/// configured grace period. Returns an error if the cull worker stops for good (see
 /// [`worker`]), so that the process exits non-zero and its orchestrator restarts it.
 async fn run(
     listener: TcpListener,
@@ -335,7 +335,7 @@ async fn run(
     }
     if worker_died.await.is_ok() {
         return Err(std::io::Error::other(format!(
-            "the GPU worker died {} times; stopping so that the service is restarted",
+            "the cull worker died {} times; stopping so that the service is restarted",
             state.worker.health.restarts()
         )));
     }

@@ -1,5 +1,5 @@
 //! REST handlers. Each parses its own input (so that bad input gets our JSON error,
-//! not a framework's plain text), checks it, and leaves culling to the GPU worker.
+//! not a framework's plain text), checks it, and leaves culling to the cull worker.
 
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
@@ -36,7 +36,7 @@ pub async fn healthz() -> Json<serde_json::Value> {
 /// native CPU backend, `reference`; `adapter` in words), the worker running.
 #[utoipa::path(get, path = "/readyz", responses(
     (status = 200, description = "ready; names the adapter"),
-    (status = 503, description = "starting, shutting down, or the GPU worker has stopped")))]
+    (status = 503, description = "starting, shutting down, or the cull worker has stopped")))]
 pub async fn readyz(State(state): State<AppState>) -> Response {
     let worker_running = !state.worker.health.stopped();
     let ready = state.ready.load(Ordering::SeqCst) && !*state.shutdown.borrow() && worker_running;
@@ -446,7 +446,7 @@ pub async fn occluders(
     }))
 }
 
-/// Parses a `CullRequest` body, plans its pose on scene `id` as the GPU worker would
+/// Parses a `CullRequest` body, plans its pose on scene `id` as the cull worker would
 /// (the server's occluder budget) and runs `f` on the plan off the async runtime: the
 /// debug routes' shared part. Viewports over `max_pixels` are refused.
 async fn with_pose_plan<T: Send + 'static>(
@@ -499,7 +499,7 @@ pub struct PyramidLevel {
 /// The occlusion-map pyramid of one pose, for the viewer's debug panel.
 ///
 /// Computed by the CPU reference of the occluder raster and pyramid passes (the GPU
-/// passes are tested equal to it), beside the GPU worker so culling is not held up.
+/// passes are tested equal to it), beside the cull worker so culling is not held up.
 #[utoipa::path(post, path = "/v1/scenes/{id}/pyramid", params(("id" = String, Path, description = "scene id")),
     request_body = CullRequest,
     responses((status = 200, description = "{\"levels\": [{\"level\", \"width\", \"height\", \"png\"}]}"),
@@ -510,8 +510,8 @@ pub async fn pyramid(
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Json<serde_json::Value>, ApiError> {
     let levels = with_pose_plan(&state, &id, body, PYRAMID_MAX_PIXELS, |prepared, p| {
-        use crate::core::hom::ReferenceBackend;
-        use crate::core::hom::pyramid::{self, LevelLayout};
+        use crate::core::reference::ReferenceBackend;
+        use crate::core::reference::pyramid::{self, LevelLayout};
         let cam = &p.cam;
         let layout = LevelLayout::new(cam.width, cam.height);
         let (opacity, _depth) = pyramid::build(

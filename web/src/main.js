@@ -345,6 +345,7 @@ function connect(sceneId) {
     const adapter = `${info.adapter ?? "unknown adapter"}${info.cpu_fallback ? " (CPU fallback)" : ""}`;
     setHud("hud-adapter", adapter, (v) => v);
     $("hud-adapter").title = adapter;
+    setHud("hud-backend", info.backend ?? "", backendLabel);
     if (objectCount !== app.objects.length) {
       showError("mismatch", `the stream reports ${objectCount} objects but the object table has ${app.objects.length}; reload the page`);
     }
@@ -643,6 +644,20 @@ const fmtInt = (v) => Number(v).toLocaleString("en-US");
 const fmtMs = (v) => (Number.isFinite(v) ? v.toFixed(1) : "\u2013");
 
 /** Shows `format(value)` in HUD element `id`, keeping the raw value in `data-value`. */
+/** The HUD's name for the backend that answers (`/readyz` and the hello's `backend`). */
+function backendLabel(backend) {
+  switch (backend) {
+    case "gpu":
+      return "GPU";
+    case "cpu":
+      return "native CPU";
+    case "reference":
+      return "CPU reference";
+    default:
+      return backend || "\u2013";
+  }
+}
+
 function setHud(id, value, format) {
   const el = $(id);
   const raw = String(value);
@@ -970,6 +985,7 @@ function hud() {
     fps: num("hud-fps"),
     state: $("hud-state").dataset.value,
     adapter: $("hud-adapter").dataset.value,
+    backend: $("hud-backend").dataset.value,
     display: $("hud-display").dataset.value,
   };
 }

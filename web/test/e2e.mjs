@@ -126,6 +126,7 @@ async function main() {
   server.stdout.on("data", keep);
   server.stderr.on("data", keep);
   await waitReady(base);
+  const { backend } = await getJson(`${base}/readyz`);
 
   const scenes = await getJson(`${base}/v1/scenes`);
   const demo = scenes.scenes.find((s) => s.id === "demo");
@@ -255,6 +256,7 @@ async function main() {
     );
     assert.ok(Number.isFinite(hud.rttP50) && hud.rttP50 > 0 && hud.rttP95 >= hud.rttP50, `${where}: RTT ${hud.rttP50}/${hud.rttP95}`);
     assert.ok(hud.adapter.length > 0, "adapter shown");
+    assert.equal(hud.backend, backend, "the HUD's cull time names the backend /readyz names");
     occlusionShare += s.candidates ? s.culled_by_occlusion / s.candidates : 0;
     log(
       `${where}: ${frame.ids.length} drawn, ${s.culled_by_frustum} frustum-culled, ${s.culled_by_occlusion} occlusion-culled, ` +

@@ -6,7 +6,7 @@
 //! occluders, build the box-based depth estimation buffer ([`deb`]). A backend
 //! ([`Culler`]) then runs the image-space work on the plans and answers with one
 //! visibility bitmask per pose ([`mask`]): the GPU one (`core::gpu`) records a whole
-//! batch into one submission with one readback; the reference one (`core::hom`) runs
+//! batch into one submission with one readback; the reference one (`core::reference`) runs
 //! the CPU twin of every pass.
 //!
 //! Nothing here names a backend: settings ([`settings`]), pass times

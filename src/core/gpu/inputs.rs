@@ -19,7 +19,7 @@ use super::targets::SlotTargets;
 use super::test::{TestConfig, TestInputs};
 use crate::core::camera::PoseUniform;
 use crate::core::cull::{CullSettings, PosePlan, words_per_pose};
-use crate::core::hom::level_thresholds;
+use crate::core::reference::level_thresholds;
 
 /// A batch's inputs: pose uniforms, the visibility bitmask, each pose's draws (all
 /// candidates for the oracle, else occluders), the groups of poses sharing the atlas,

@@ -20,7 +20,7 @@
 //! - [`refine`]: HOM's refinement: the box test's survivors re-rasterized against the
 //!   occluders' depth buffer (early depth tests where the adapter can force them),
 //!   writing a second bitmask (twin: `hom/refine.rs`).
-//! - [`oracle`]: ID buffer → visibility bitmask (compute; twin: `hom/oracle.rs`).
+//! - [`oracle`]: ID buffer → visibility bitmask (compute; twin: `reference/oracle.rs`).
 //! - [`targets`], [`passes`]: the atlas (a viewport-sized slot per pose of a group)
 //!   and the pipelines every scene on a device shares.
 //! - [`inputs`]: what a batch writes before it records (pose uniforms, draws, each

@@ -1,6 +1,6 @@
 //! Exact oracle, second half: reads the ID buffers of a group of poses and sets the
 //! visibility bit of every object that owns at least one pixel.
-//! CPU twin: `hom/oracle.rs` (`hom::raster::raster_ids` plus a scan of the ID buffer).
+//! CPU twin: `reference/oracle.rs` (`reference::raster::raster_ids` plus a scan of the ID buffer).
 
 use super::arena::{BindCache, GrowBuffer, Upload};
 use super::counted::ComputePass;

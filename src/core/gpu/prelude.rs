@@ -7,7 +7,7 @@ use homcull_proto::{DebVariant, Method};
 
 use crate::core::camera::RECT_EPSILON_PX;
 use crate::core::cull::deb::DEPTH_MARGIN;
-use crate::core::hom::MAX_LEVELS;
+use crate::core::reference::MAX_LEVELS;
 
 /// Threads per workgroup of the one-dimensional kernels (box test, refinement filter).
 pub const LINEAR_WORKGROUP: u32 = 64;

@@ -8,7 +8,7 @@
 use super::counted::ComputePass;
 use super::device::GpuDevice;
 use super::encode::{record_grid, slotted, storage_entry, texture_entry, uniform_entry};
-use crate::core::hom::{MAX_LEVELS, pyramid::LevelLayout};
+use crate::core::reference::{MAX_LEVELS, pyramid::LevelLayout};
 
 /// Levels one dispatch writes after the one it reads.
 const LEVELS_PER_STEP: usize = 2;

@@ -18,7 +18,7 @@
 //!    shader, and a pixel the oracle gives to an object always passes, since the oracle
 //!    keeps the nearest of a superset of the same fragments. Elsewhere every fragment
 //!    runs `fs_refine`, which compares with the occlusion map and the box test's depth
-//!    margin. CPU twin: `hom::refine::refine` (the early-test comparison on the CPU
+//!    margin. CPU twin: `reference::refine::refine` (the early-test comparison on the CPU
 //!    rasterizer's own depths; all three are conservative and differ only on depth
 //!    near-ties).
 

@@ -21,7 +21,7 @@ use super::arena::next_resource_id;
 use super::counted::Encoder;
 use super::device::GpuDevice;
 use super::pyramid::{PyramidPass, buffer_levels};
-use crate::core::hom::pyramid::LevelLayout;
+use crate::core::reference::pyramid::LevelLayout;
 
 /// The atlases' formats: the occluders' depth buffer, the occlusion map (view depth of
 /// the nearest occluder, 0 where uncovered) and the oracle's object IDs.

@@ -13,7 +13,7 @@ use super::prelude::{deb_code, method_code};
 use super::pyramid::buffer_levels;
 use super::targets::SlotTargets;
 use crate::core::cull::PosePlan;
-use crate::core::hom::{MAX_LEVELS, pyramid::LevelLayout};
+use crate::core::reference::{MAX_LEVELS, pyramid::LevelLayout};
 
 /// `TestConfig` in `test.wgsl`: what is the same for every pose of a batch.
 #[repr(C)]

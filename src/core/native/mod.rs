@@ -22,7 +22,7 @@
 //! Why it never culls what the oracle sees:
 //! 1. Coverage is the exact oracle's own: [`span::SpanTriangle::row`] accepts exactly
 //!    the pixel centres that the reference rasterizer's f64 edge functions and
-//!    top-left rule accept (the CPU oracle twin, `hom::oracle`), shown in its tests on
+//!    top-left rule accept (the CPU oracle twin, `reference::oracle`), shown in its tests on
 //!    random triangles. Occluders are objects' own triangles, so a covered pixel of the map
 //!    is a pixel the oracle covers with one of those triangles.
 //! 2. The box test culls a box only if every pixel of its screen rect holds an
@@ -46,7 +46,7 @@
 //! What it does not do natively: approximate thresholds (below 1.0) and the `hzb`
 //! baseline, which need the averaged opacity pyramid; those build the reference
 //! pyramid from this backend's map and use the reference's test, so they are correct
-//! and as slow as the reference's test. The CPU reference (`core::hom`) stays the
+//! and as slow as the reference's test. The CPU reference (`core::reference`) stays the
 //! test oracle of every pass here.
 
 mod descent;
@@ -67,7 +67,7 @@ use crate::core::cull::deb::DEPTH_MARGIN;
 use crate::core::cull::{
     CullError, CullSettings, Culler, PosePlan, PreparedScene, clear_bit, has_bit,
 };
-use crate::core::hom::{ReferenceBackend, pyramid};
+use crate::core::reference::{ReferenceBackend, pyramid};
 use map::OcclusionMap;
 use masked::MaskedMap;
 use refine::IdBuffer;

@@ -20,7 +20,7 @@
 use glam::Vec3;
 
 use crate::core::camera::{Camera, ScreenRect};
-use crate::core::hom::raster::{ScreenTriangle, ScreenVertex, edge, screen_polygon};
+use crate::core::reference::raster::{ScreenTriangle, ScreenVertex, edge, screen_polygon};
 
 /// Pixels evaluated together along a span (one AVX2 register of f32).
 pub const LANES: usize = 8;

@@ -10,9 +10,9 @@ use super::plot::{Chart, Series};
 use crate::eval::EvalReport;
 
 /// Uncovered level-0 pixels a texel at level `k` may hold and still pass at `O_0 = t`:
-/// `(1 − O_k)·4^k`, with `O_k` from [`crate::core::hom::level_thresholds`].
+/// `(1 − O_k)·4^k`, with `O_k` from [`crate::core::reference::level_thresholds`].
 pub fn allowed_pixels(t: f32, k: usize) -> f64 {
-    let o = crate::core::hom::level_thresholds(t, k + 1)[k] as f64;
+    let o = crate::core::reference::level_thresholds(t, k + 1)[k] as f64;
     (1.0 - o) * 4f64.powi(k as i32)
 }
 
@@ -30,7 +30,7 @@ pub(super) fn section(r: &mut Report, evals: &[EvalReport]) -> Result<()> {
         "\n## 2. HOM threshold curve (approximate culling)\n\n\
          HOM with the raster DEB at opacity thresholds {:?}, same poses as section 1. \
          The seed's per-level thresholds are O_k = (3 + O_(k−1)) / 4 \
-         (`hom::level_thresholds`), so 1 − O_k = (1 − O_0) / 4^k: a texel at level k \
+         (`reference::level_thresholds`), so 1 − O_k = (1 − O_0) / 4^k: a texel at level k \
          covers 4^k pixels and passes with at most (1 − O_k)·4^k = 1 − O_0 of them \
          uncovered, at every level. Bound per texel (largest over levels 0–7, computed \
          in f32 as the passes do): {}. Level-0 opacity is binary (a pixel is covered or \

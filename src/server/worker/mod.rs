@@ -1,9 +1,9 @@
-//! The one GPU worker: every cull (REST, batch, WebSocket) goes through it.
+//! The one cull worker: every cull (REST, batch, WebSocket) goes through it.
 //!
 //! Handlers never touch the GPU. They send a [`CullJob`] over a bounded
 //! channel and await a oneshot reply. The worker, a plain thread because culling
 //! blocks, takes the first waiting job, drains whatever else is waiting up to
-//! `gpu_batch` poses, groups the jobs by scene and options, and runs each group as
+//! `cull_batch` poses, groups the jobs by scene and options, and runs each group as
 //! one batch: one submission, one readback. Under load many clients share one
 //! submission, and the worker plans and records the next batch while the device runs
 //! the last ([`pipeline`]); with one client a pose runs alone with no added wait. A
@@ -124,11 +124,11 @@ impl WorkerHandle {
             mpsc::error::TrySendError::Closed(_) => ApiError::new(
                 axum::http::StatusCode::SERVICE_UNAVAILABLE,
                 "worker_stopped",
-                "the GPU worker has stopped; the server is restarting",
+                "the cull worker has stopped; the server is restarting",
             ),
         })?;
         rx.await
-            .map_err(|_| ApiError::internal("the GPU worker dropped the request"))?
+            .map_err(|_| ApiError::internal("the cull worker dropped the request"))?
     }
 }
 
@@ -136,7 +136,7 @@ impl WorkerHandle {
 /// is dropped.
 pub fn spawn(
     queue: usize,
-    gpu_batch: usize,
+    cull_batch: usize,
     batching: bool,
     supervision: Supervision,
 ) -> WorkerHandle {
@@ -148,15 +148,15 @@ pub fn spawn(
     let h = health.clone();
     std::thread::Builder::new()
         .name("homcull-gpu".into())
-        .spawn(move || supervise(rx, gpu_batch.max(1), batching, supervision, &h))
-        .expect("spawning the GPU worker thread");
+        .spawn(move || supervise(rx, cull_batch.max(1), batching, supervision, &h))
+        .expect("spawning the cull worker thread");
     WorkerHandle { tx, health }
 }
 
 /// Runs the worker, starting it over after a panic (see the module docs).
 fn supervise(
     mut rx: mpsc::Receiver<CullJob>,
-    gpu_batch: usize,
+    cull_batch: usize,
     batching: bool,
     supervision: Supervision,
     health: &WorkerHealth,
@@ -164,7 +164,7 @@ fn supervise(
     let mut faults = supervision.panic_first_batches;
     loop {
         let ran = std::panic::catch_unwind(AssertUnwindSafe(|| {
-            run(&mut rx, gpu_batch, batching, &mut faults)
+            run(&mut rx, cull_batch, batching, &mut faults)
         }));
         let Err(panic) = ran else {
             return; // every handle is gone: the server has stopped
@@ -174,14 +174,14 @@ fn supervise(
         let what = panic_message(&*panic);
         if restarts > supervision.max_restarts {
             tracing::error!(
-                "the GPU worker died ({what}) after {} restarts; it stays stopped",
+                "the cull worker died ({what}) after {} restarts; it stays stopped",
                 supervision.max_restarts
             );
             health.stopped.send_replace(true);
             return; // drops the queue: waiting and new jobs fail at once
         }
         tracing::error!(
-            "the GPU worker died ({what}); restart {restarts} of {}",
+            "the cull worker died ({what}); restart {restarts} of {}",
             supervision.max_restarts
         );
     }
@@ -195,7 +195,7 @@ fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
         .unwrap_or_default()
 }
 
-fn run(rx: &mut mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool, faults: &mut u32) {
+fn run(rx: &mut mpsc::Receiver<CullJob>, cull_batch: usize, batching: bool, faults: &mut u32) {
     let mut pipeline = Pipeline::default();
     let mut trim = IdleTrim::default();
     loop {
@@ -226,7 +226,7 @@ fn run(rx: &mut mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool, fault
         }
         let mut poses = first.cams.len();
         let mut jobs = vec![first];
-        while batching && poses < gpu_batch {
+        while batching && poses < cull_batch {
             match rx.try_recv() {
                 Ok(job) => {
                     poses += job.cams.len();
@@ -246,7 +246,7 @@ fn run(rx: &mut mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool, fault
         }
         if batching {
             for group in group_jobs(jobs) {
-                pipeline.run_group(group, gpu_batch);
+                pipeline.run_group(group, cull_batch);
             }
         } else {
             for job in jobs {
@@ -254,7 +254,7 @@ fn run(rx: &mut mpsc::Receiver<CullJob>, gpu_batch: usize, batching: bool, fault
             }
         }
     }
-    tracing::debug!("GPU worker stopped");
+    tracing::debug!("cull worker stopped");
 }
 
 /// Hands freed heap pages back to the OS when the worker runs out of work, at most once a

@@ -62,10 +62,10 @@ impl Pipeline {
     }
 
     /// Runs a group of jobs that share an engine and options as batches of at most
-    /// `gpu_batch` poses, each started before the previous one is finished. Between
+    /// `cull_batch` poses, each started before the previous one is finished. Between
     /// batches it stops if every client of the group has gone (a huge batch from a
     /// client that timed out does not hold the device for others).
-    pub(super) fn run_group(&mut self, jobs: Vec<CullJob>, gpu_batch: usize) {
+    pub(super) fn run_group(&mut self, jobs: Vec<CullJob>, cull_batch: usize) {
         let seq = self.next_group;
         self.next_group += 1;
         let engine = jobs[0].engine.clone();
@@ -83,7 +83,7 @@ impl Pipeline {
             sealed: false,
             failed: false,
         });
-        for (chunk, chunk_prefer) in cams.chunks(gpu_batch).zip(prefer.chunks(gpu_batch)) {
+        for (chunk, chunk_prefer) in cams.chunks(cull_batch).zip(prefer.chunks(cull_batch)) {
             // Gone when an earlier batch of the group failed (it was answered then).
             let Some(group) = self.group(seq) else { break };
             if group.jobs.iter().all(|j| j.reply.is_closed()) {
@@ -150,8 +150,8 @@ impl Pipeline {
         } = flight;
         let poses = started.poses();
         let out = finish_batch(&engine, started);
-        metrics::histogram!("homcull_gpu_batch_poses").record(poses as f64);
-        metrics::histogram!("homcull_gpu_batch_seconds").record(at.elapsed().as_secs_f64());
+        metrics::histogram!("homcull_cull_batch_poses").record(poses as f64);
+        metrics::histogram!("homcull_cull_batch_seconds").record(at.elapsed().as_secs_f64());
         metrics::counter!("homcull_culls_total", "method" => options.method.name())
             .increment(poses as u64);
         let Some(group) = self.group(group) else {
@@ -239,8 +239,8 @@ pub(super) fn cull_batch(
 ) -> Result<Vec<PoseResult>, ApiError> {
     let at = Instant::now();
     let out = start_batch(engine, cams, options, prefer).and_then(|s| finish_batch(engine, s));
-    metrics::histogram!("homcull_gpu_batch_poses").record(cams.len() as f64);
-    metrics::histogram!("homcull_gpu_batch_seconds").record(at.elapsed().as_secs_f64());
+    metrics::histogram!("homcull_cull_batch_poses").record(cams.len() as f64);
+    metrics::histogram!("homcull_cull_batch_seconds").record(at.elapsed().as_secs_f64());
     metrics::counter!("homcull_culls_total", "method" => options.method.name())
         .increment(cams.len() as u64);
     out

@@ -6,7 +6,7 @@
 //!   puts each into a one-slot mailbox, replacing any pose still waiting there:
 //!   **latest pose wins**, superseded poses are dropped and counted, never queued;
 //! - the sender takes the mailbox's pose when the previous answer is out (and no
-//!   sooner than the frame-rate cap allows), sends it to the GPU worker, and writes a
+//!   sooner than the frame-rate cap allows), sends it to the cull worker, and writes a
 //!   delta against the last set it sent, or a full frame on the first answer, every
 //!   `full_every` frames, when the client asks, and when the change is too big for a
 //!   delta frame (more than 65535 IDs added or removed, see `VisibleDelta::fits`).

@@ -9,7 +9,7 @@ use super::{OcclusionMap, TILE, TileRect, bound_tile_rows, front_facing};
 use crate::core::camera::Camera;
 use crate::core::cull::deb::DEPTH_MARGIN;
 use crate::core::geom::Aabb;
-use crate::core::hom::raster::{ScreenTriangle, screen_polygon};
+use crate::core::reference::raster::{ScreenTriangle, screen_polygon};
 use crate::core::native::span::{LANES, Span, SpanTriangle};
 use crate::core::scene::Scene;
 

@@ -4,7 +4,7 @@
 
 use super::*;
 use crate::core::camera::look_at;
-use crate::core::hom::raster::raster_depth;
+use crate::core::reference::raster::raster_depth;
 use crate::core::native::span::LANES;
 use crate::core::native::test_triangles::random_triangles;
 use rand::{Rng, SeedableRng};

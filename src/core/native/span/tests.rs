@@ -1,6 +1,6 @@
 use super::*;
 use crate::core::camera::look_at;
-use crate::core::hom::raster::raster_triangle;
+use crate::core::reference::raster::raster_triangle;
 use rand::{Rng, SeedableRng};
 
 /// Every covered pixel and its depth, by spans.

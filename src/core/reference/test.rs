@@ -108,7 +108,7 @@ pub fn hzb_occluded(r: &ScreenRect, p: &PyramidView) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::core::hom::{level_thresholds, pyramid};
+    use crate::core::reference::{level_thresholds, pyramid};
 
     fn rect(x0: u32, y0: u32, x1: u32, y1: u32, near: f32) -> ScreenRect {
         ScreenRect {

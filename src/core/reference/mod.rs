@@ -1,9 +1,9 @@
-//! The HOM algorithm on the CPU, pass by pass: the reference backend.
+//! The HOM algorithm on the CPU, pass by pass: the reference backend (the oracle twin).
 //!
 //! Everything here is plain Rust and is the CPU twin of a GPU pass in `gpu/`, named
-//! alike (`hom/refine.rs` beside `gpu/refine.rs`): each has a WGSL twin with the same
+//! alike (`reference/refine.rs` beside `gpu/refine.rs`): each has a WGSL twin with the same
 //! arithmetic, and tests feed both the same input. [`ReferenceBackend`] runs them
-//! behind the `Culler` seam, as the test oracle and the fallback without an adapter.
+//! behind the `Culler` seam, as the test oracle of the GPU and native backends (no command serves with it).
 //!
 //! - [`raster`]: a small rasterizer with the GPU's sampling rules (pixel centres,
 //!   top-left fill rule, near/far clipping, perspective-correct view depth).
