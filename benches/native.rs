@@ -15,7 +15,7 @@
 //!   one cull: one occluder choice, a map and tests per eye).
 //! - `masked_draw`, `pose_masked_unplanned` beside `pose_per_pixel_unplanned`: the
 //!   masked map (`native::masked`, `MaskedBackend`) against the per-pixel map, the
-//!   whole pose after planning.
+//!   whole pose after planning (with `--features experimental`).
 
 use std::sync::OnceLock;
 
@@ -24,7 +24,8 @@ use homcull::core::camera::{Camera, stereo};
 use homcull::core::cull::{CullSettings, Culler, PosePlan, PreparedScene, plan};
 use homcull::core::native::NativeBackend;
 use homcull::core::native::map::OcclusionMap;
-use homcull::core::native::masked::MaskedMap;
+#[cfg(feature = "experimental")]
+use homcull::core::native::masked::{MaskedBackend, MaskedMap};
 use homcull::core::occluders::OccluderParams;
 use homcull::core::sampler::PoseSampler;
 use homcull::core::scene::{demo_city, load_path};
@@ -178,9 +179,10 @@ fn pose_per_pixel_unplanned(bencher: Bencher, name: &str) {
 }
 
 /// The whole pose on the masked map (`MaskedBackend`), planned outside the timing.
+#[cfg(feature = "experimental")]
 #[divan::bench(args = SCENES)]
 fn pose_masked_unplanned(bencher: Bencher, name: &str) {
-    unplanned(bencher, name, NativeBackend::pose_mask_masked);
+    unplanned(bencher, name, MaskedBackend::pose_mask_masked);
 }
 
 /// Every pose's image-space work by `mask` (refined HOM), the poses planned first.
@@ -197,6 +199,7 @@ fn unplanned(
         .bench_local(|| plans.iter().map(|p| mask(&b.prep, p, &s)[0]).sum::<u32>());
 }
 
+#[cfg(feature = "experimental")]
 #[divan::bench(args = SCENES)]
 fn masked_draw_per_pose(bencher: Bencher, name: &str) {
     let b = scene(name);

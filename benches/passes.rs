@@ -12,9 +12,9 @@ use divan::Bencher;
 use homcull::core::camera::{Camera, look_at, stereo};
 use homcull::core::cull::{CullSettings, Culler, PosePlan, PreparedScene, plan};
 use homcull::core::gpu::{GpuBackend, GpuContext};
+use homcull::core::occluders::OccluderParams;
 use homcull::core::reference::ReferenceBackend;
 use homcull::core::reference::pyramid::{self, LevelLayout};
-use homcull::core::occluders::OccluderParams;
 use homcull::core::scene::demo_city;
 use homcull_proto::{CullOptions, DebVariant, Method, Pose, Stereo};
 

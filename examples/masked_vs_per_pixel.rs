@@ -15,8 +15,8 @@ use std::time::Instant;
 use homcull::core::camera::Camera;
 use homcull::core::cull::deb::DEPTH_MARGIN;
 use homcull::core::cull::{CullSettings, PosePlan, PreparedScene, clear_bit, has_bit, plan};
-use homcull::core::native::masked::MaskedMap;
-use homcull::core::native::{NativeBackend, refine};
+use homcull::core::native::NativeBackend;
+use homcull::core::native::masked::{MaskedMap, hidden_masked};
 use homcull::core::occluders::OccluderParams;
 use homcull::core::sampler::PoseSampler;
 use homcull::core::scene::load_path;
@@ -42,7 +42,7 @@ fn masked(
     let t2 = Instant::now();
     if refine {
         for &c in &p.candidates {
-            if has_bit(&mask, c) && refine::hidden_masked(map, &prep.scene, &p.cam, c) {
+            if has_bit(&mask, c) && hidden_masked(map, &prep.scene, &p.cam, c) {
                 clear_bit(&mut mask, c);
             }
         }

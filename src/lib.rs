@@ -1,23 +1,30 @@
 //! homcull: a networked occlusion-culling server.
 //!
-//! It keeps a 3D scene and its occluder database resident, takes camera poses, runs
-//! Hierarchical Occlusion Maps (Zhang et al. 1997) on a headless wgpu device, and
-//! answers with the IDs of the objects that may be visible. Conservative by default:
-//! with opacity threshold 1.0 it never culls an object the exact ID-buffer oracle sees.
+//! It keeps 3D scenes and their occluder databases resident, takes camera poses, runs
+//! Hierarchical Occlusion Maps (Zhang et al. 1997) on a wgpu device or on its native
+//! CPU backend, and answers with the IDs of the objects that may be visible.
+//! Conservative by default: with opacity threshold 1.0 it never culls an object the
+//! exact ID-buffer oracle sees.
 //!
-//! # Layers
-//! Each layer uses only the ones above it in this list (`tests/architecture.rs`
-//! checks it):
-//! - [`core`]: scenes, cameras, occluders, the `Culler` seam and its backends (CPU
-//!   reference, GPU), the resident scene.
-//! - [`server`]: the HTTP/WebSocket service around the core (axum), its worker and
-//!   data dir.
-//! - [`eval`]: evaluation against the oracle, the report, the load generator.
-//! - [`cli`]: the command line (clap) and its subcommands.
+//! # Crates by layer
+//! Each uses only the ones before it (`tests/architecture.rs` checks it):
+//! - `homcull-proto` (`proto/`): the wire types and the binary frame codec.
+//! - [`core`] (`homcull-engine`, `crates/engine/`): scenes, cameras, occluders, the
+//!   `Culler` seam, its backends (wgpu, native CPU, the CPU reference) and the oracle;
+//!   no async runtime, HTTP or command line.
+//! - [`server`] (`homcull-server`, `crates/server/`): the HTTP/WebSocket service around
+//!   the engine (axum), its cull worker, data dir and limits.
+//! - [`eval`] (`homcull-eval`, `crates/eval/`, cargo feature `eval`): evaluation
+//!   against the oracle, the report and its plots, the load generator.
+//! - [`cli`] (this crate): the command line (clap) and its subcommands.
 //!
-//! `ARCHITECTURE.md` at the repository root draws the data flow.
+//! This crate re-exports the layers under their short names, so that tests, benches
+//! and examples name one crate. `ARCHITECTURE.md` at the repository root draws the
+//! data flow.
+
+pub use homcull_engine as core;
+#[cfg(feature = "eval")]
+pub use homcull_eval as eval;
+pub use homcull_server as server;
 
 pub mod cli;
-pub mod core;
-pub mod eval;
-pub mod server;

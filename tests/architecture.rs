@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
 /// The library's layers, in order: each may use only itself and those before it.
-const LAYERS: [&str; 4] = ["core", "server", "eval", "cli"];
+const LAYERS: [&str; 5] = ["proto", "core", "server", "eval", "cli"];
 
 /// The modules of `core/`, in order: each may use only itself and those before it.
 const CORE: [&str; 14] = [
@@ -61,28 +61,64 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
+/// Each crate of the workspace as a layer: its source folder and its name among the
+/// layers. The binary crate's own modules (`cli`) sit at the root.
+const CRATES: [(&str, &str); 5] = [
+    ("proto/src", "proto"),
+    ("crates/engine/src", "core"),
+    ("crates/server/src", "server"),
+    ("crates/eval/src", "eval"),
+    ("src", ""),
+];
+
+/// How each crate is named in code, and its layer.
+const CRATE_NAMES: [(&str, &str); 4] = [
+    ("homcull_proto::", "proto"),
+    ("homcull_engine::", "core"),
+    ("homcull_server::", "server"),
+    ("homcull_eval::", "eval"),
+];
+
+/// Every library source file of the workspace as one tree of modules: a crate's
+/// `crate::x` is read as `crate::LAYER::x`, and `homcull_engine::x` (and the other
+/// crates' names) as `crate::core::x`, so that references across crates are edges
+/// like those within one.
 fn library() -> Vec<Source> {
-    let src = Path::new(ROOT).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
-    files.sort();
-    files
-        .into_iter()
-        .filter(|p| p.file_name().is_some_and(|n| n != "main.rs"))
-        .map(|path| {
+    let mut out = Vec::new();
+    for (dir, layer) in CRATES {
+        let src = Path::new(ROOT).join(dir);
+        let mut files = Vec::new();
+        rust_files(&src, &mut files);
+        files.sort();
+        for path in files {
+            if path.file_name().is_some_and(|n| n == "main.rs") {
+                continue;
+            }
             let rel = path.strip_prefix(&src).unwrap();
-            let mut module: ModPath = rel
-                .with_extension("")
-                .iter()
-                .map(|s| s.to_string_lossy().into_owned())
-                .collect();
+            let mut module: ModPath = if layer.is_empty() {
+                Vec::new()
+            } else {
+                vec![layer.to_string()]
+            };
+            module.extend(
+                rel.with_extension("")
+                    .iter()
+                    .map(|s| s.to_string_lossy().into_owned()),
+            );
             if module.last().is_some_and(|m| m == "mod" || m == "lib") {
                 module.pop();
             }
-            let text = std::fs::read_to_string(&path).unwrap();
-            Source { path, module, text }
-        })
-        .collect()
+            let mut text = std::fs::read_to_string(&path).unwrap();
+            if !layer.is_empty() {
+                text = text.replace("crate::", &format!("crate::{layer}::"));
+            }
+            for (name, l) in CRATE_NAMES {
+                text = text.replace(name, &format!("crate::{l}::"));
+            }
+            out.push(Source { path, module, text });
+        }
+    }
+    out
 }
 
 /// The text without comments (line comments and doc comments; block comments are not
@@ -371,6 +407,7 @@ fn every_rust_file() -> Vec<PathBuf> {
     let mut files = Vec::new();
     for dir in [
         "src",
+        "crates",
         "tests",
         "benches",
         "examples",
@@ -383,7 +420,7 @@ fn every_rust_file() -> Vec<PathBuf> {
 }
 
 /// Every GPU buffer and bind group is created, every pass begun and every submission
-/// made through the counting wrappers (`core/gpu/counted.rs`, `core/gpu/device.rs`),
+/// made through the counting wrappers (`gpu/counted.rs`, `gpu/device.rs` of the engine),
 /// so the counts the batch tests assert on are the whole truth.
 #[test]
 fn gpu_objects_are_created_only_through_the_counting_wrappers() {
@@ -397,7 +434,7 @@ fn gpu_objects_are_created_only_through_the_counting_wrappers() {
     ];
     let wrappers = ["counted.rs", "device.rs"];
     let mut files = Vec::new();
-    rust_files(&Path::new(ROOT).join("src/core/gpu"), &mut files);
+    rust_files(&Path::new(ROOT).join("crates/engine/src/gpu"), &mut files);
     assert!(files.len() > 15);
     let mut found = Vec::new();
     for f in &files {

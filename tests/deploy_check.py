@@ -59,7 +59,7 @@ LIVENESS_PATH = "/healthz"
 READINESS_PATH = "/readyz"
 HEALTHCHECK_CLIENT_TIMEOUT_S = 2.0  # `homcull healthcheck` gives /healthz 2 s
 
-# The server's configuration contract (src/server/config.rs, flags in src/cli/args.rs): env name -> (type, default).
+# The server's configuration contract (crates/server/src/config.rs, flags in src/cli/args.rs): env name -> (type, default).
 # Used to type-check values even when the binary is not available; when it is,
 # its --help is the authority for which names exist.
 CONTRACT: dict[str, tuple[str, str | None]] = {
@@ -1401,9 +1401,9 @@ def check_dockerignore():
                                  timeout=30).stdout.split()
     except (OSError, subprocess.SubprocessError):
         tracked = []
-    build_inputs = ("src/", "proto/", "web/", "benches/", "build.rs")
+    build_inputs = ("src/", "crates/", "proto/", "web/", "benches/", "build.rs")
     if not tracked:  # not a git checkout: walk the build inputs instead
-        tracked = [str(f.relative_to(REPO)) for d in ("src", "proto", "web", "benches")
+        tracked = [str(f.relative_to(REPO)) for d in ("src", "crates", "proto", "web", "benches")
                    for f in (REPO / d).rglob("*") if f.is_file() and "target" not in f.parts]
     needed += [t for t in tracked if t.startswith(build_inputs) or fnmatch.fnmatch(t, "*/Cargo.toml")]
     bad = sorted({n for n in needed if dockerignored(n, pats)})

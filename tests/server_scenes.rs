@@ -116,7 +116,7 @@ async fn uploads_persist_across_restarts_and_writes_need_the_token() {
     assert_eq!(after.visible, before.visible);
     let glb_back = get_bytes(&http, srv.url(&format!("/v1/scenes/{}/glb", info.id))).await;
     assert_eq!(
-        glb_back.as_ref(),
+        glb_back.as_slice(),
         glb.as_slice(),
         "the upload is served byte for byte"
     );

@@ -1,45 +1,16 @@
-//! The command line: one clap struct per subcommand, every flag also an `HOMCULL_*`
-//! environment variable where that makes sense. Defaults are documented here.
+//! The arguments of the subcommands that serve and cull, and the groups of flags the
+//! evaluation's subcommands share (`eval_args`): one clap struct each, every flag also
+//! an `HOMCULL_*` environment variable where that makes sense. Defaults are
+//! documented here.
 
 use std::path::PathBuf;
 
-use clap::{Args, Parser, Subcommand};
+use clap::Args;
 use homcull_proto::{DebVariant, Method};
 
 use crate::core::engine::BackendChoice;
 use crate::core::occluders::OccluderParams;
-use crate::eval::loadgen::LoadConfig;
-use crate::eval::report::{ReportOptions, Section};
 use crate::server::{AuthScope, Config};
-
-#[derive(Debug, Parser)]
-#[command(
-    name = "homcull",
-    version,
-    about = "Occlusion culling with Hierarchical Occlusion Maps, on a wgpu device or the CPU"
-)]
-pub struct Cli {
-    #[command(subcommand)]
-    pub command: Option<Command>,
-}
-
-#[derive(Debug, Subcommand)]
-pub enum Command {
-    /// Serve scenes over HTTP and WebSocket (the default when no subcommand is given).
-    Serve(ServeArgs),
-    /// Exit 0 if the server's /healthz answers 200 within 2 s (for Docker HEALTHCHECK).
-    Healthcheck(HealthcheckArgs),
-    /// Drive a running server with N WebSocket or REST clients on loopback and report throughput and latency.
-    Loadgen(LoadgenArgs),
-    /// Move a running server's objects on loopback (the demo city's cars drive) so a viewer shows motion.
-    Animate(AnimateArgs),
-    /// Cull one pose and print the visible IDs and stats as JSON.
-    Cull(CullArgs),
-    /// Run every method and the exact oracle on the same poses and report quality and speed.
-    Eval(EvalArgs),
-    /// Measure quality and speed on every scene and write DIR/report.md plus PNG plots.
-    Report(ReportArgs),
-}
 
 /// Which scene to load.
 #[derive(Debug, Clone, Args)]
@@ -114,43 +85,6 @@ pub struct CullArgs {
     pub lod_px: Option<String>,
 }
 
-#[derive(Debug, Args)]
-pub struct EvalArgs {
-    #[command(flatten)]
-    pub backend: BackendArgs,
-    #[command(flatten)]
-    pub scene: SceneArg,
-    /// Sample N random poses where a person would stand.
-    #[arg(long, conflicts_with = "poses_file")]
-    pub random: Option<usize>,
-    /// Seed of the random pose sampler.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// A JSON array of poses in the wire format.
-    #[arg(long)]
-    pub poses_file: Option<PathBuf>,
-    /// Methods to compare with the oracle: hom, hom-refine, hom-raster, hom-tiles,
-    /// hom-plane, hzb, frustum (hom-DEB is the box test alone, hom-refine the raster DEB
-    /// with per-pixel refinement, plain hom follows --deb and --no-refine).
-    #[arg(long, value_delimiter = ',', default_value = "hom,hzb,frustum")]
-    pub methods: Vec<String>,
-    /// Viewport for sampled poses, WIDTHxHEIGHT.
-    #[arg(long, default_value = "960x540", value_parser = parse_viewport)]
-    pub viewport: [u32; 2],
-    /// Poses per GPU batch.
-    #[arg(long, default_value_t = 16)]
-    pub batch: usize,
-    /// Print one JSON object instead of a table.
-    #[arg(long)]
-    pub json: bool,
-    /// Also measure GPU time per pass (timestamp queries; a second run per method).
-    #[arg(long)]
-    pub profile: bool,
-    #[command(flatten)]
-    pub params: CullParams,
-}
-
-/// Parses `WIDTHxHEIGHT`.
 pub fn parse_viewport(s: &str) -> Result<[u32; 2], String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -204,7 +138,12 @@ pub struct ServeArgs {
     pub full_every: u32,
     /// Most poses the cull worker runs in one batch (one submission on a GPU) [default:
     /// 64]. `--gpu-batch` and `HOMCULL_GPU_BATCH` are its old names.
-    #[arg(long, visible_alias = "gpu-batch", env = "HOMCULL_CULL_BATCH", value_name = "N")]
+    #[arg(
+        long,
+        visible_alias = "gpu-batch",
+        env = "HOMCULL_CULL_BATCH",
+        value_name = "N"
+    )]
     pub cull_batch: Option<usize>,
     /// Jobs waiting for the cull worker before requests are refused with 503.
     #[arg(long, env = "HOMCULL_QUEUE", default_value_t = Config::default().queue)]
@@ -280,18 +219,6 @@ pub struct ServeArgs {
     pub worker_restarts: u32,
 }
 
-impl Default for ServeArgs {
-    fn default() -> Self {
-        Cli::parse_from(["homcull", "serve"])
-            .command
-            .and_then(|c| match c {
-                Command::Serve(a) => Some(a),
-                _ => None,
-            })
-            .expect("serve parses with no arguments")
-    }
-}
-
 impl ServeArgs {
     /// The server's configuration from these flags (everything but the address).
     /// Fails only on a malformed `HOMCULL_GPU_BATCH`, the old name of
@@ -352,169 +279,9 @@ pub struct HealthcheckArgs {
     pub url: Option<String>,
 }
 
-#[derive(Debug, Args)]
-pub struct LoadgenArgs {
-    /// Base URL of the server (loopback only).
-    #[arg(long, default_value = "http://127.0.0.1:8080")]
-    pub url: String,
-    /// Scene id.
-    #[arg(long, default_value = "demo")]
-    pub scene: String,
-    /// Concurrent clients.
-    #[arg(long, default_value_t = 32)]
-    pub clients: usize,
-    /// Seconds to run.
-    #[arg(long, default_value_t = 5.0)]
-    pub seconds: f64,
-    /// `ws` (one pose in flight per client) or `batch` (REST batches of --batch poses).
-    #[arg(long, default_value = "ws")]
-    pub mode: String,
-    /// Poses per REST batch in `batch` mode.
-    #[arg(long, default_value_t = 64)]
-    pub batch: usize,
-    /// Object transforms per second a writer sends meanwhile (0: none).
-    #[arg(long, default_value_t = 0.0)]
-    pub transforms_per_s: f64,
-    /// Print one JSON object instead of text.
-    #[arg(long)]
-    pub json: bool,
-}
-
-/// `homcull report`: the evaluation and scaling report.
-#[derive(Debug, Clone, Args)]
-pub struct ReportArgs {
-    #[command(flatten)]
-    pub backend: BackendArgs,
-    /// Where report.md and the plots go (created if missing).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// A small, fast version (16 poses at 480x270, fewer sizes and clients): a smoke test.
-    #[arg(long)]
-    pub quick: bool,
-    /// The scenes to report on: every .glb in it, plus the demo city.
-    #[arg(long, default_value = "../shared/scenes")]
-    pub scenes_dir: PathBuf,
-    /// Which sections to run (comma-separated): quality (with the threshold curve),
-    /// budget, viewport, batch, objects, server, motion. Default: all.
-    #[arg(long, value_delimiter = ',', value_enum)]
-    pub sections: Vec<ReportSection>,
-}
-
 /// `--auth`: what the API token guards.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum AuthArg {
     Writes,
     Cull,
-}
-
-/// A section of `homcull report`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum ReportSection {
-    Quality,
-    Budget,
-    Viewport,
-    Batch,
-    Objects,
-    Server,
-    Motion,
-}
-
-/// `homcull animate`: a writer moving objects of a running server (loopback only).
-#[derive(Debug, Clone, Args)]
-pub struct AnimateArgs {
-    /// Base URL of the server (loopback only).
-    #[arg(long, default_value = "http://127.0.0.1:8080")]
-    pub url: String,
-    /// Scene id.
-    #[arg(long, default_value = "demo")]
-    pub scene: String,
-    /// Objects whose names start with this move (`model_` for the OpenArena maps' doors and lifts).
-    #[arg(long, default_value = "car_")]
-    pub prefix: String,
-    /// The axis they move along: `long` (the longer horizontal side: cars drive forward), x, y or z.
-    #[arg(long, default_value = "long")]
-    pub axis: AxisArg,
-    /// Metres each side of where the file put them.
-    #[arg(long, default_value_t = 20.0)]
-    pub amplitude: f32,
-    /// Seconds for one round trip.
-    #[arg(long, default_value_t = 12.0)]
-    pub period_s: f32,
-    /// Updates per second.
-    #[arg(long, default_value_t = 20.0)]
-    pub rate: f32,
-    /// Seconds to run (0: until stopped).
-    #[arg(long, default_value_t = 0.0)]
-    pub seconds: f64,
-    /// Bearer token for writes, when the server has one.
-    #[arg(long, env = "HOMCULL_API_TOKEN")]
-    pub token: Option<String>,
-}
-
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
-pub enum AxisArg {
-    Long,
-    X,
-    Y,
-    Z,
-}
-
-impl AnimateArgs {
-    pub fn config(&self) -> crate::eval::animate::AnimateConfig {
-        use crate::eval::animate::Axis;
-        crate::eval::animate::AnimateConfig {
-            url: self.url.clone(),
-            scene: self.scene.clone(),
-            prefix: self.prefix.clone(),
-            axis: match self.axis {
-                AxisArg::Long => Axis::Long,
-                AxisArg::X => Axis::X,
-                AxisArg::Y => Axis::Y,
-                AxisArg::Z => Axis::Z,
-            },
-            amplitude: self.amplitude,
-            period_s: self.period_s,
-            rate_hz: self.rate,
-            seconds: self.seconds,
-            token: self.token.clone(),
-        }
-    }
-}
-
-impl LoadgenArgs {
-    pub fn config(&self) -> LoadConfig {
-        LoadConfig {
-            url: self.url.clone(),
-            scene: self.scene.clone(),
-            clients: self.clients,
-            seconds: self.seconds,
-            mode: self.mode.clone(),
-            batch: self.batch,
-            transforms_per_s: self.transforms_per_s,
-        }
-    }
-}
-
-impl ReportArgs {
-    pub fn options(&self) -> ReportOptions {
-        let sections = self
-            .sections
-            .iter()
-            .map(|s| match s {
-                ReportSection::Quality => Section::Quality,
-                ReportSection::Budget => Section::Budget,
-                ReportSection::Viewport => Section::Viewport,
-                ReportSection::Batch => Section::Batch,
-                ReportSection::Objects => Section::Objects,
-                ReportSection::Server => Section::Server,
-                ReportSection::Motion => Section::Motion,
-            })
-            .collect();
-        ReportOptions {
-            out: self.out.clone(),
-            quick: self.quick,
-            scenes_dir: self.scenes_dir.clone(),
-            sections,
-        }
-    }
 }

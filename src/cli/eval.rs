@@ -1,10 +1,11 @@
-//! `homcull eval`: every method and the exact oracle on the same poses, as a table or
-//! JSON.
+//! The evaluation subcommands (cargo feature `eval`): `homcull eval` (every method and
+//! the exact oracle on the same poses, as a table or JSON), `loadgen`, `animate` and
+//! `report`.
 
 use anyhow::{Context, Result, bail};
 use homcull_proto::Pose;
 
-use super::args::EvalArgs;
+use super::eval_args::{AnimateArgs, EvalArgs, LoadgenArgs, ReportArgs};
 use super::{load_scene, open_backend};
 use crate::core::camera::Camera;
 use crate::core::resident::{Residency, ResidentScene};
@@ -73,4 +74,35 @@ pub fn run(a: EvalArgs) -> Result<()> {
         print!("{}", table(&report));
     }
     Ok(())
+}
+
+/// `homcull loadgen`.
+pub fn loadgen(a: LoadgenArgs) -> Result<()> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    let report = rt.block_on(crate::eval::loadgen::run(&a.config()))?;
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!("{}", report.summary());
+    }
+    Ok(())
+}
+
+/// `homcull animate`.
+pub fn animate(a: AnimateArgs) -> Result<()> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    let report = rt.block_on(crate::eval::animate::run(&a.config()))?;
+    println!("{}", serde_json::to_string(&report)?);
+    Ok(())
+}
+
+/// `homcull report`.
+pub fn report(a: ReportArgs) -> Result<()> {
+    crate::eval::report::run(&a.options(), open_backend(&a.backend)?)
 }

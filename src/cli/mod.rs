@@ -4,8 +4,13 @@
 //! [`crate::eval::report::ReportOptions`]) and chooses the backend.
 
 pub mod args;
+pub mod commands;
 pub mod cull;
+#[cfg(feature = "eval")]
 pub mod eval;
+#[cfg(feature = "eval")]
+pub mod eval_args;
+pub mod flags_table;
 pub mod healthcheck;
 pub mod serve;
 
@@ -14,21 +19,24 @@ use clap::Parser;
 
 use crate::core::engine::Backend;
 use crate::core::scene::{Scene, demo_city, load_path};
-use args::{
-    AnimateArgs, BackendArgs, Cli, Command, HealthcheckArgs, LoadgenArgs, ReportArgs, SceneArg,
-    ServeArgs,
-};
+use args::{BackendArgs, HealthcheckArgs, SceneArg, ServeArgs};
+use commands::{Cli, Command};
+pub use flags_table::flags_table;
 
 /// Parses the command line and runs the subcommand (`serve` when none is given).
 pub fn run() -> Result<()> {
     match Cli::parse().command {
         Some(Command::Serve(a)) => serve::run(a),
         Some(Command::Healthcheck(a)) => healthcheck(a),
-        Some(Command::Loadgen(a)) => loadgen(a),
-        Some(Command::Animate(a)) => animate(a),
         Some(Command::Cull(a)) => cull::run(a),
+        #[cfg(feature = "eval")]
+        Some(Command::Loadgen(a)) => eval::loadgen(a),
+        #[cfg(feature = "eval")]
+        Some(Command::Animate(a)) => eval::animate(a),
+        #[cfg(feature = "eval")]
         Some(Command::Eval(a)) => eval::run(a),
-        Some(Command::Report(a)) => report(a),
+        #[cfg(feature = "eval")]
+        Some(Command::Report(a)) => eval::report(a),
         None => serve::run(ServeArgs::default()),
     }
 }
@@ -79,32 +87,4 @@ fn healthcheck(a: HealthcheckArgs) -> Result<()> {
             std::process::exit(1);
         }
     }
-}
-
-fn loadgen(a: LoadgenArgs) -> Result<()> {
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-        .context("starting the async runtime")?;
-    let report = rt.block_on(crate::eval::loadgen::run(&a.config()))?;
-    if a.json {
-        println!("{}", serde_json::to_string(&report)?);
-    } else {
-        println!("{}", report.summary());
-    }
-    Ok(())
-}
-
-fn animate(a: AnimateArgs) -> Result<()> {
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-        .context("starting the async runtime")?;
-    let report = rt.block_on(crate::eval::animate::run(&a.config()))?;
-    println!("{}", serde_json::to_string(&report)?);
-    Ok(())
-}
-
-fn report(a: ReportArgs) -> Result<()> {
-    crate::eval::report::run(&a.options(), open_backend(&a.backend)?)
 }

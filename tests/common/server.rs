@@ -131,8 +131,15 @@ pub async fn get_json<T: serde::de::DeserializeOwned>(
 }
 
 /// `GET url`; the answer's body bytes (panics on any failure).
-pub async fn get_bytes(http: &reqwest::Client, url: impl reqwest::IntoUrl) -> axum::body::Bytes {
-    http.get(url).send().await.unwrap().bytes().await.unwrap()
+pub async fn get_bytes(http: &reqwest::Client, url: impl reqwest::IntoUrl) -> Vec<u8> {
+    http.get(url)
+        .send()
+        .await
+        .unwrap()
+        .bytes()
+        .await
+        .unwrap()
+        .to_vec()
 }
 
 /// `POST url` with a JSON body; the answer's JSON body (panics on any failure).

@@ -1,7 +1,7 @@
 //! Encoding, decoding and validation of frames: little-endian words, checked lengths,
 //! no panics and no allocation beyond what the input justifies.
 
-use super::words::{Reader, Writer};
+use super::words::{Reader, Writer, fill_words, len_u32};
 use super::*;
 use crate::PROTOCOL_VERSION;
 
@@ -391,10 +391,6 @@ impl Frame {
     }
 }
 
-pub(super) fn len_u32(n: usize) -> u32 {
-    u32::try_from(n).expect("frame field longer than u32::MAX elements")
-}
-
 pub(super) fn check_ascending(list: &'static str, ids: &[u32]) -> Result<(), FrameError> {
     for (index, pair) in ids.windows(2).enumerate() {
         if let [prev, id] = *pair {
@@ -465,13 +461,6 @@ fn decode_levels(bytes: &[u8], count: usize) -> Result<Vec<u8>, FrameError> {
     }
     check_levels(count, levels)?;
     Ok(levels.to_vec())
-}
-
-/// Fills `out` with the little-endian words of `bytes` (as many as both have).
-pub(super) fn fill_words(out: &mut [u32], bytes: &[u8]) {
-    for (o, c) in out.iter_mut().zip(bytes.chunks_exact(4)) {
-        *o = u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-    }
 }
 
 /// Strictly ascending IDs from a whole number of words.

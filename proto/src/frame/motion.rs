@@ -104,7 +104,7 @@ impl TransformsFrame {
 
     pub(super) fn write(&self, w: &mut Writer) {
         w.word(optional(self.horizon_ms));
-        w.word(codec::len_u32(self.objects.len()));
+        w.word(words::len_u32(self.objects.len()));
         for o in &self.objects {
             w.word(o.id);
             for v in o
@@ -126,7 +126,7 @@ impl TransformsFrame {
         let mut objects = Vec::with_capacity(tail.len() / (4 * MOVED_OBJECT_WORDS));
         for chunk in tail.chunks_exact(4 * MOVED_OBJECT_WORDS) {
             let mut w = [0u32; MOVED_OBJECT_WORDS];
-            codec::fill_words(&mut w, chunk);
+            words::fill_words(&mut w, chunk);
             let f = |k: usize| f32::from_bits(w[k]);
             objects.push(MovedObject {
                 id: w[0],

@@ -2,7 +2,6 @@
 //! little-endian words, zero-padded bytes and strings, payload sizes checked before
 //! anything is read.
 
-use super::codec::{fill_words, len_u32};
 use super::*;
 
 pub(super) struct Writer(pub(super) Vec<u8>);
@@ -99,5 +98,17 @@ impl<'a> Reader<'a> {
             Ok(s) => Ok(s.to_owned()),
             Err(_) => Err(FrameError::InvalidUtf8 { field }),
         }
+    }
+}
+
+/// A length as the u32 a frame field carries.
+pub(super) fn len_u32(n: usize) -> u32 {
+    u32::try_from(n).expect("frame field longer than u32::MAX elements")
+}
+
+/// Fills `out` with the little-endian words of `bytes` (as many as both have).
+pub(super) fn fill_words(out: &mut [u32], bytes: &[u8]) {
+    for (o, c) in out.iter_mut().zip(bytes.chunks_exact(4)) {
+        *o = u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
     }
 }
