@@ -22,6 +22,11 @@
 //! and examples name one crate. `ARCHITECTURE.md` at the repository root draws the
 //! data flow.
 
+// As in every crate of the workspace (`[workspace.lints]`): matches over homcull's
+// own enums name every variant. Set here rather than in the package's `[lints]`,
+// which would reach its tests too.
+#![deny(clippy::wildcard_enum_match_arm)]
+
 pub use homcull_engine as core;
 #[cfg(feature = "eval")]
 pub use homcull_eval as eval;

@@ -294,7 +294,8 @@ fn mutate(bytes: &mut Vec<u8>, m: &Mutation) {
         }
         Mutation::Truncate(n) => bytes.truncate(n % (len + 1)),
         Mutation::Append(extra) => bytes.extend_from_slice(extra),
-        _ => {}
+        // Too short to flip or set a word in.
+        Mutation::Flip(..) | Mutation::SetWord(..) => {}
     }
 }
 

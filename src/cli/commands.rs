@@ -46,12 +46,9 @@ pub enum Command {
 
 impl Default for ServeArgs {
     fn default() -> Self {
-        Cli::parse_from(["homcull", "serve"])
-            .command
-            .and_then(|c| match c {
-                Command::Serve(a) => Some(a),
-                _ => None, // clippy::wildcard_enum_match_arm: only `serve` is asked for
-            })
-            .expect("serve parses with no arguments")
+        let Some(Command::Serve(a)) = Cli::parse_from(["homcull", "serve"]).command else {
+            unreachable!("`homcull serve` parses as serve")
+        };
+        a
     }
 }

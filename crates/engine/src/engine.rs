@@ -72,9 +72,10 @@ pub enum Backend {
 impl Backend {
     /// The backend `choice` asks for (see the module docs).
     pub fn open(choice: BackendChoice) -> Result<Self, GpuError> {
-        let choice = match choice {
-            BackendChoice::Auto if require_gpu() => BackendChoice::Gpu,
-            c => c,
+        let choice = if choice == BackendChoice::Auto && require_gpu() {
+            BackendChoice::Gpu
+        } else {
+            choice
         };
         match choice {
             BackendChoice::Gpu => Ok(Backend::Gpu(Arc::new(GpuContext::new()?))),
@@ -121,7 +122,7 @@ impl Backend {
     pub fn gpu(&self) -> Option<&Arc<GpuContext>> {
         match self {
             Backend::Gpu(ctx) => Some(ctx),
-            _ => None,
+            Backend::Native | Backend::Reference => None,
         }
     }
 

@@ -198,7 +198,7 @@ pub fn evaluate(
         let (visible, ms) = match spec.options.method {
             Method::Exact => (oracle.clone(), oracle_ms.clone()),
             Method::Frustum => (in_frustum.clone(), frustum_ms.clone()),
-            _ => run(engine, spec)?,
+            Method::Hom | Method::Hzb => run(engine, spec)?,
         };
         let mut gpu_ms_per_pass = None;
         if profile && spec.options.method != Method::Frustum && engine.set_profiling(true) {

@@ -364,7 +364,11 @@ async fn placements_probe(
                     }
                 }
                 Message::Binary(b) if Frame::decode(&b)?.ack() == seq => break,
-                _ => {}
+                Message::Binary(_)
+                | Message::Ping(_)
+                | Message::Pong(_)
+                | Message::Close(_)
+                | Message::Frame(_) => {}
             }
         }
     }
@@ -472,7 +476,9 @@ async fn ws_client(
                     s.errors += 1;
                     (e.ack, 0)
                 }
-                _ => continue,
+                Frame::Hello(_) | Frame::Pose(_) | Frame::Transforms(_) | Frame::Applied(_) => {
+                    continue;
+                }
             };
             if ack == seq {
                 s.poses += 1;

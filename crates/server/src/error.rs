@@ -73,7 +73,9 @@ impl From<homcull_engine::dynamic::TransformError> for ApiError {
         let (status, code) = match e {
             E::TooMany { .. } => (StatusCode::PAYLOAD_TOO_LARGE, "too_many_objects"),
             E::UnknownObject { .. } => (StatusCode::BAD_REQUEST, "unknown_object"),
-            _ => (StatusCode::BAD_REQUEST, "invalid_transform"),
+            E::Repeated { .. } | E::Invalid { .. } | E::SharedVertices { .. } | E::Horizon(_) => {
+                (StatusCode::BAD_REQUEST, "invalid_transform")
+            }
         };
         Self::new(status, code, e.to_string())
     }

@@ -62,6 +62,10 @@ pub enum FrameError {
 impl FrameError {
     /// The code to answer this error with: [`ErrorCode::UnsupportedVersion`] for a version
     /// mismatch, [`ErrorCode::MalformedFrame`] otherwise.
+    #[allow(
+        clippy::wildcard_enum_match_arm,
+        reason = "every other error is a malformed frame, new ones included"
+    )]
     pub fn code(&self) -> ErrorCode {
         match self {
             FrameError::UnsupportedVersion { .. } => ErrorCode::UnsupportedVersion,

@@ -52,7 +52,7 @@ impl DepthEstimationBuffer {
     ) -> Self {
         let tile = match variant {
             DebVariant::Tiles => tile.max(1),
-            _ => cam.width.max(cam.height),
+            DebVariant::Plane | DebVariant::Raster => cam.width.max(cam.height),
         };
         let cols = cam.width.div_ceil(tile);
         let rows = cam.height.div_ceil(tile);

@@ -50,7 +50,7 @@ impl CullSettings {
     pub fn deb_variant(&self) -> DebVariant {
         match self.options.method {
             Method::Hom => self.options.deb,
-            _ => DebVariant::Raster,
+            Method::Hzb | Method::Frustum | Method::Exact => DebVariant::Raster,
         }
     }
 

@@ -40,7 +40,7 @@ pub const DEPTH_SLACK_PX: f32 = 0.0625;
 pub fn method_code(method: Method) -> u32 {
     match method {
         Method::Hzb => 1,
-        _ => 0,
+        Method::Hom | Method::Frustum | Method::Exact => 0,
     }
 }
 

@@ -43,7 +43,10 @@ pub const MAX_SLOTS: u32 = 256;
 pub fn slot_budget(device_type: wgpu::DeviceType) -> u64 {
     match device_type {
         wgpu::DeviceType::Cpu => 256 << 20,
-        _ => 1 << 30,
+        wgpu::DeviceType::Other
+        | wgpu::DeviceType::IntegratedGpu
+        | wgpu::DeviceType::DiscreteGpu
+        | wgpu::DeviceType::VirtualGpu => 1 << 30,
     }
 }
 

@@ -44,7 +44,10 @@ impl ReferenceBackend {
         let thr = level_thresholds(s.options.threshold, layout.levels());
         p.box_test(scene, |r| match s.options.method {
             Method::Hzb => hzb_occluded(r, &view),
-            _ => hom_occluded(r, &view, &thr, s.options.deb, &p.deb),
+            // Only the occluder methods reach the box test.
+            Method::Hom | Method::Frustum | Method::Exact => {
+                hom_occluded(r, &view, &thr, s.options.deb, &p.deb)
+            }
         })
     }
 

@@ -230,6 +230,11 @@ fn mesh_triangles(
         if local.iter().any(|&i| i >= count) {
             return Err(perr("index out of range"));
         }
+        // Other modes were skipped above: what is left is a fan.
+        #[allow(
+            clippy::wildcard_enum_match_arm,
+            reason = "gltf's Mode; only fans are left"
+        )]
         let list = match mode {
             Mode::Triangles => local,
             Mode::TriangleStrip => (2..local.len())

@@ -133,6 +133,10 @@ fn mesh_cost(mesh: &gltf::Mesh, limits: &LoadLimits) -> Result<(u64, u64), Strin
             Some(ix) => accessor_count(&ix, limits).map_err(|e| at(&format!("indices: {e}")))?,
             None => vertices,
         };
+        #[allow(
+            clippy::wildcard_enum_match_arm,
+            reason = "gltf's Mode; strips and fans"
+        )]
         let t = match mode {
             Mode::Triangles => corners / 3,
             _ => corners.saturating_sub(2),

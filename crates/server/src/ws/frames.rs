@@ -127,6 +127,10 @@ pub(super) fn parse_text(text: &str) -> Result<Pending, ErrorFrame> {
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::wildcard_enum_match_arm,
+    reason = "a test names the frame it expects and fails on any other"
+)]
 mod tests {
     use homcull_proto::frame::{MAX_DELTA_IDS, apply_delta};
 

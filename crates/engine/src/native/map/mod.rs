@@ -354,7 +354,7 @@ impl TexelTest for OcclusionMap {
                     Texel::Visible
                 }
             }
-            answer => answer,
+            answer @ (Texel::Hidden | Texel::Visible | Texel::Split) => answer,
         }
     }
 
