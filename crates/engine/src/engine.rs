@@ -290,3 +290,17 @@ impl Engine {
         self.backend.finish_cull(&self.prepared, started)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::demo_city;
+
+    #[test]
+    fn a_backend_and_its_culler_share_one_short_name() {
+        let prep = PreparedScene::new(demo_city(), OccluderParams::default());
+        for b in [Backend::Native, Backend::Reference] {
+            assert_eq!(b.culler(&prep).name(), b.name());
+        }
+    }
+}

@@ -98,6 +98,7 @@ impl From<homcull_engine::cull::CullError> for ApiError {
         use homcull_engine::cull::CullError;
         match e {
             CullError::Options(o) => o.into(),
+            CullError::Unsupported { .. } => Self::bad_request("method_unsupported", e.to_string()),
             CullError::Backend { .. } => Self::internal(e.to_string()),
         }
     }

@@ -8,6 +8,13 @@ pub enum CullError {
     /// The options were refused before any work ([`homcull_proto::CullOptions::validate`]).
     #[error(transparent)]
     Options(#[from] InvalidOptions),
+    /// The method does not run on this backend (`CullMethod::runs_on`).
+    #[error("method `{method}` does not run on the {backend} backend")]
+    Unsupported {
+        method: &'static str,
+        /// The backend's short name (`Culler::name`).
+        backend: &'static str,
+    },
     /// The backend could not run the batch (a device lost, a readback that failed).
     #[error("{backend}: {message}")]
     Backend {

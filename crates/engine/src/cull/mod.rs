@@ -10,16 +10,19 @@
 //! the CPU twin of every pass.
 //!
 //! Nothing here names a backend: settings ([`settings`]), pass times
-//! ([`pass_times`]) and errors ([`error`]) are the algorithm's words. Methods:
-//! `frustum` (BVH only), `hom`, `hzb`, and `exact` (the ID-buffer oracle that defines
-//! ground truth). `hom` with `refine` (the default) re-tests the objects that pass its
-//! box test per pixel of their own triangles. What a method asks of the plan is said
-//! once, in [`CullSettings`].
+//! ([`pass_times`]) and errors ([`error`]) are the algorithm's words. Each method is
+//! one type behind [`CullMethod`] ([`method`]): `frustum` (BVH only), `hom`, `hzb`,
+//! and `exact` (the ID-buffer oracle that defines ground truth); it says what the plan
+//! prepares for it and which passes ([`Passes`]) the backends run. `hom` with `refine`
+//! (the default) re-tests the objects that pass its box test per pixel of their own
+//! triangles.
 
 pub mod copies;
 pub mod deb;
 pub mod error;
 pub mod mask;
+pub mod method;
+mod methods;
 pub mod pass_times;
 pub mod plan;
 pub mod prepared;
@@ -28,6 +31,8 @@ pub mod started;
 
 pub use error::CullError;
 pub use mask::{clear_bit, empty_mask, has_bit, set_bit, union, words_per_pose};
+pub use method::{BoxTest, CullMethod, Needs, Passes};
+pub use methods::{Exact, Frustum, Hom, Hzb};
 pub use pass_times::{Pass, PassMsPerPose, PassTimes};
 pub use plan::{PosePlan, plan, plan_preferring, plan_with, select_occluders};
 pub use prepared::PreparedScene;
@@ -78,6 +83,10 @@ impl PoseResult {
 
 /// A backend that runs the image-space part of culling for a batch of poses.
 pub trait Culler {
+    /// The backend's short name (`gpu`, `cpu`, `reference`), as
+    /// [`CullMethod::runs_on`] and `/readyz` name it.
+    fn name(&self) -> &'static str;
+
     /// Adapter or implementation name, for reports.
     fn describe(&self) -> String;
 

@@ -1,29 +1,49 @@
-//! Everything that shapes a cull besides the poses, and what each method asks of the
-//! shared planning: the one place a method is described to every backend.
+//! Everything that shapes a cull besides the poses: the options, the method they name
+//! ([`CullMethod`]) and the planning limits.
 
-use homcull_proto::{CullOptions, DebVariant, Method};
+use homcull_proto::{CullOptions, DebVariant};
 
 use super::error::CullError;
+use super::method::{self, BoxTest, CullMethod, Passes};
 use super::prepared::PreparedScene;
 use crate::cull::deb::DEFAULT_TILE;
 
 /// Everything that shapes a cull besides the poses.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy)]
 pub struct CullSettings {
     pub options: CullOptions,
+    /// The method that culls: `options.method`'s ([`method::of`]) unless replaced by
+    /// [`CullSettings::with_method`].
+    pub method: &'static dyn CullMethod,
     /// Occluder triangles rendered per pose.
     pub budget_triangles: u32,
     /// Tile side of the `tiles` DEB, pixels.
     pub deb_tile: u32,
 }
 
+impl PartialEq for CullSettings {
+    fn eq(&self, other: &Self) -> bool {
+        self.options == other.options
+            && self.method.name() == other.method.name()
+            && self.budget_triangles == other.budget_triangles
+            && self.deb_tile == other.deb_tile
+    }
+}
+
 impl CullSettings {
     pub fn new(options: CullOptions, prepared: &PreparedScene) -> Self {
         CullSettings {
             options,
+            method: method::of(options.method),
             budget_triangles: prepared.occluders.params.budget_triangles,
             deb_tile: DEFAULT_TILE,
         }
+    }
+
+    /// These settings culling with `method` instead of the one `options` name: a
+    /// method of the caller's own, not on the wire.
+    pub fn with_method(self, method: &'static dyn CullMethod) -> Self {
+        CullSettings { method, ..self }
     }
 
     /// Checks the options ([`CullOptions::validate`]).
@@ -31,31 +51,32 @@ impl CullSettings {
         Ok(self.options.validate()?)
     }
 
+    /// The image-space passes of the method ([`CullMethod::passes`]).
+    pub fn passes(&self) -> Option<Passes> {
+        self.method.passes(&self.options)
+    }
+
+    /// The box test of the method's occlusion passes, if it has them.
+    pub fn box_test(&self) -> Option<BoxTest> {
+        match self.passes() {
+            Some(Passes::Occlusion { test, .. }) => Some(test),
+            Some(Passes::Exact) | None => None,
+        }
+    }
+
     /// True when the method renders occluders and tests boxes against them (the plan
     /// then selects occluders and in-frustum test boxes).
     pub fn uses_occluders(&self) -> bool {
-        match self.options.method {
-            Method::Hom | Method::Hzb => true,
-            Method::Frustum | Method::Exact => false,
-        }
+        self.method.needs(&self.options).occluders
     }
 
-    /// True when the method needs image-space work at all (`frustum` is the BVH alone).
-    pub fn uses_image(&self) -> bool {
-        self.options.method != Method::Frustum
-    }
-
-    /// The depth estimation buffer the plan builds: `hom` follows its options, `hzb`
-    /// compares against the depth pyramid itself (the raster DEB).
+    /// The depth estimation buffer the plan builds.
     pub fn deb_variant(&self) -> DebVariant {
-        match self.options.method {
-            Method::Hom => self.options.deb,
-            Method::Hzb | Method::Frustum | Method::Exact => DebVariant::Raster,
-        }
+        self.method.needs(&self.options).deb
     }
 
     /// True when the box test's survivors are refined per pixel (`hom` with `refine`).
     pub fn refines(&self) -> bool {
-        self.options.method == Method::Hom && self.options.refine
+        matches!(self.passes(), Some(Passes::Occlusion { refine: true, .. }))
     }
 }

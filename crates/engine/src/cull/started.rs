@@ -30,8 +30,7 @@ pub enum StartedVisibility {
 /// A cull started by [`Culler::start_cull`]: its plans and the batches running on them.
 pub struct StartedCull {
     plans: Vec<PosePlan>,
-    /// One per run of consecutive poses of the same viewport size (none for methods
-    /// that use no image).
+    /// One per run of consecutive poses of the same viewport size.
     batches: Vec<StartedVisibility>,
     started: Instant,
     /// Time spent starting and finishing the image-space work, ms.
@@ -69,6 +68,12 @@ pub(super) fn start<C: Culler + ?Sized>(
     prefer: &[&[u32]],
 ) -> Result<StartedCull, CullError> {
     s.validate()?;
+    if !s.method.runs_on(culler.name()) {
+        return Err(CullError::Unsupported {
+            method: s.method.name(),
+            backend: culler.name(),
+        });
+    }
     let started = Instant::now();
     let plans = plan_all(prep, cams, s, prefer);
     tracing::debug!(
@@ -79,17 +84,15 @@ pub(super) fn start<C: Culler + ?Sized>(
     );
     let mut batches = Vec::new();
     let image = Instant::now();
-    if s.uses_image() {
-        let mut i = 0;
-        while i < plans.len() {
-            let size = (plans[i].cam.width, plans[i].cam.height);
-            let j = i + plans[i..]
-                .iter()
-                .take_while(|p| (p.cam.width, p.cam.height) == size)
-                .count();
-            batches.push(culler.start_visibility(prep, &plans[i..j], s)?);
-            i = j;
-        }
+    let mut i = 0;
+    while i < plans.len() {
+        let size = (plans[i].cam.width, plans[i].cam.height);
+        let j = i + plans[i..]
+            .iter()
+            .take_while(|p| (p.cam.width, p.cam.height) == size)
+            .count();
+        batches.push(culler.start_visibility(prep, &plans[i..j], s)?);
+        i = j;
     }
     Ok(StartedCull {
         plans,

@@ -15,8 +15,6 @@
 
 use std::sync::Arc;
 
-use homcull_proto::Method;
-
 use super::context::GpuContext;
 use super::counted::{ComputePass, Encoder};
 use super::device::GpuError;
@@ -29,9 +27,10 @@ use super::raster::RasterKind;
 use super::readback::{read_buffer, read_occlusion, submit_read};
 use super::scene_buffers::SceneBuffers;
 use super::targets::{SlotTargets, slots_for};
+use crate::cull::method::masks_from_plans;
 use crate::cull::{
-    CullError, CullSettings, Culler, Pass, PassTimes, PosePlan, PreparedScene, StartedVisibility,
-    has_bit, set_bit,
+    BoxTest, CullError, CullSettings, Culler, Pass, PassTimes, Passes, PosePlan, PreparedScene,
+    StartedVisibility, has_bit, set_bit,
 };
 
 /// The GPU culler of one scene: its buffers, and the device's shared passes.
@@ -133,7 +132,11 @@ impl GpuBackend {
                 t.slots
             )));
         }
-        self.record_with(t, plans, s, false)?;
+        let work = Passes::Occlusion {
+            test: s.box_test().unwrap_or(BoxTest::Hom),
+            refine: s.refines(),
+        };
+        self.record_with(t, plans, s, work, false)?;
         let n = plans.len();
         let (_, stride) = buffer_levels(&t.layout);
         let read = |buffer| -> Result<Vec<f32>, GpuError> {
@@ -180,12 +183,14 @@ impl GpuBackend {
         &mut self,
         plans: &[PosePlan],
         s: &CullSettings,
+        work: Passes,
     ) -> Result<Vec<Vec<u32>>, GpuError> {
         let profile = self.profile.is_some();
         let passes = Arc::clone(&self.passes);
         let (masks, times) = {
             let guard = lock_targets(&self.ctx, &passes, plans);
-            self.record_with(guard.as_ref().expect("targets exist"), plans, s, profile)?
+            let t = guard.as_ref().expect("targets exist");
+            self.record_with(t, plans, s, work, profile)?
         };
         if let (Some(total), Some(t)) = (&mut self.profile, times) {
             for (sum, ms) in total.ms.iter_mut().zip(t.ms) {
@@ -198,12 +203,12 @@ impl GpuBackend {
 
     /// Records and submits one batch without waiting for it (see `super::in_flight`);
     /// returns the ticket its bitmasks are taken with.
-    fn start(&mut self, plans: &[PosePlan], s: &CullSettings) -> u64 {
+    fn start(&mut self, plans: &[PosePlan], s: &CullSettings, work: Passes) -> u64 {
         let ctx = Arc::clone(&self.ctx);
         let passes = Arc::clone(&self.passes);
         let guard = lock_targets(&ctx, &passes, plans);
         let t = guard.as_ref().expect("targets exist");
-        let (encoder, refined, _) = self.record(&ctx, t, plans, s, false);
+        let (encoder, refined, _) = self.record(&ctx, t, plans, s, work, false);
         self.submit(encoder, refined)
     }
 
@@ -214,15 +219,16 @@ impl GpuBackend {
         t: &SlotTargets,
         plans: &[PosePlan],
         s: &CullSettings,
+        work: Passes,
         profile: bool,
     ) -> Result<(Vec<Vec<u32>>, Option<PassTimes>), GpuError> {
         // The encoder borrows the context's counters, not `self` (read_masks takes it).
         let ctx = Arc::clone(&self.ctx);
-        let (encoder, refined, stamps) = self.record(&ctx, t, plans, s, profile);
+        let (encoder, refined, stamps) = self.record(&ctx, t, plans, s, work, profile);
         self.read_masks(encoder, refined, stamps.as_ref())
     }
 
-    /// Writes a batch's inputs and records its passes on the atlas `t` (with
+    /// Writes a batch's inputs and records its passes `work` on the atlas `t` (with
     /// timestamps when `profile` and the adapter has them); returns the encoder,
     /// whether the result is the refined bitmask, and the stamps.
     fn record<'c>(
@@ -231,10 +237,14 @@ impl GpuBackend {
         t: &SlotTargets,
         plans: &[PosePlan],
         s: &CullSettings,
+        work: Passes,
         profile: bool,
     ) -> (Encoder<'c>, bool, Option<Stamps>) {
         let started = std::time::Instant::now();
-        let exact = s.options.method == Method::Exact;
+        let (exact, refines) = match work {
+            Passes::Exact => (true, false),
+            Passes::Occlusion { refine, .. } => (false, refine),
+        };
         self.inputs.write(
             ctx,
             &self.passes,
@@ -244,6 +254,7 @@ impl GpuBackend {
             &self.moving,
             plans,
             s,
+            work,
         );
         let mut encoder = ctx.encoder();
         self.inputs.upload.flush(ctx, &mut encoder);
@@ -251,7 +262,6 @@ impl GpuBackend {
         encoder
             .raw
             .clear_buffer(inputs.mask.get(), 0, Some(inputs.mask_bytes()));
-        let refines = !exact && s.refines();
         if refines {
             inputs.refine.clear(&mut encoder);
         }
@@ -270,7 +280,7 @@ impl GpuBackend {
         tracing::debug!(
             target: "homcull::timing",
             poses = plans.len(),
-            method = ?s.options.method,
+            method = s.method.name(),
             record_ms = started.elapsed().as_secs_f64() * 1e3,
             "recorded a batch"
         );
@@ -428,6 +438,10 @@ fn mark(stamps: &mut Option<Stamps>, encoder: &mut Encoder<'_>, pass: Option<Pas
 }
 
 impl Culler for GpuBackend {
+    fn name(&self) -> &'static str {
+        "gpu"
+    }
+
     fn describe(&self) -> String {
         self.ctx.describe()
     }
@@ -443,14 +457,17 @@ impl Culler for GpuBackend {
 
     fn visibility(
         &mut self,
-        _prep: &PreparedScene,
+        prep: &PreparedScene,
         plans: &[PosePlan],
         s: &CullSettings,
     ) -> Result<Vec<Vec<u32>>, CullError> {
+        let Some(work) = s.passes() else {
+            return Ok(masks_from_plans(s.method, prep, plans));
+        };
         if plans.is_empty() {
             return Ok(Vec::new());
         }
-        let mut masks = self.record_and_read(plans, s)?;
+        let mut masks = self.record_and_read(plans, s, work)?;
         if let Some(moving) = self.moving_candidates(plans, s) {
             mark_visible(&mut masks, &moving);
         }
@@ -465,12 +482,15 @@ impl Culler for GpuBackend {
         plans: &[PosePlan],
         s: &CullSettings,
     ) -> Result<StartedVisibility, CullError> {
-        if plans.is_empty() || self.profile.is_some() {
+        let work = s
+            .passes()
+            .filter(|_| !plans.is_empty() && self.profile.is_none());
+        let Some(work) = work else {
             return Ok(StartedVisibility::Answered(
                 self.visibility(prep, plans, s)?,
             ));
-        }
-        let ticket = self.start(plans, s);
+        };
+        let ticket = self.start(plans, s, work);
         if let Some(moving) = self.moving_candidates(plans, s) {
             self.unfiltered.push_back((ticket, moving));
         }

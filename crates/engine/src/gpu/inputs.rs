@@ -5,8 +5,6 @@
 //! `queue.write_buffer` and clears its bitmasks on the GPU, so once the buffers have
 //! grown to the largest batch seen, a batch creates no buffers and no bind groups.
 
-use homcull_proto::Method;
-
 use super::arena::{BindCache, GrowBuffer, Upload};
 use super::device::GpuDevice;
 use super::encode::{UNIFORM_SLOT, slotted};
@@ -18,7 +16,7 @@ use super::scene_buffers::SceneBuffers;
 use super::targets::SlotTargets;
 use super::test::{TestConfig, TestInputs};
 use crate::camera::PoseUniform;
-use crate::cull::{CullSettings, PosePlan, words_per_pose};
+use crate::cull::{CullSettings, Passes, PosePlan, words_per_pose};
 use crate::reference::level_thresholds;
 
 /// A batch's inputs: pose uniforms, the visibility bitmask, each pose's draws (all
@@ -86,8 +84,13 @@ impl BatchInputs {
         moving: &[u32],
         plans: &[PosePlan],
         s: &CullSettings,
+        work: Passes,
     ) {
-        let exact = s.options.method == Method::Exact;
+        let (test, refine) = match work {
+            Passes::Exact => (None, false),
+            Passes::Occlusion { test, refine } => (Some(test), refine),
+        };
+        let exact = test.is_none();
         self.poses_count = plans.len() as u32;
         self.words = words_per_pose(objects.len()) as u32;
         self.groups = (0..self.poses_count)
@@ -132,16 +135,16 @@ impl BatchInputs {
         } else {
             self.direct = drawn.collect();
         }
-        if exact {
+        let Some(test) = test else {
             let (groups, words) = (&self.groups, self.words);
             let upload = &mut self.upload;
             self.oracle
                 .prepare(gpu, upload, &passes.oracle, t, groups, words, &self.mask);
             return;
-        }
+        };
         let deb = &plans[0].deb;
         let cfg = TestConfig::new(
-            s.options.method,
+            test,
             s.options.deb,
             &t.layout,
             &level_thresholds(s.options.threshold, t.layout.levels()),
@@ -155,7 +158,7 @@ impl BatchInputs {
             .write(gpu, &mut self.upload, &cfg, plans, &self.groups);
         self.test
             .bind(gpu, &passes.test, t, &self.poses, &scene.boxes, &self.mask);
-        if s.refines() {
+        if refine {
             self.refine.write(
                 gpu,
                 &mut self.upload,

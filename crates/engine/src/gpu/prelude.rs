@@ -3,9 +3,10 @@
 //! margins, the pyramid's level limit, the method and DEB codes, the cleared object ID
 //! and the workgroup sizes the dispatches are counted in.
 
-use homcull_proto::{DebVariant, Method};
+use homcull_proto::DebVariant;
 
 use crate::camera::RECT_EPSILON_PX;
+use crate::cull::BoxTest;
 use crate::cull::deb::DEPTH_MARGIN;
 use crate::reference::MAX_LEVELS;
 
@@ -36,11 +37,11 @@ pub const MOVING_OBJECT: u32 = 1 << 31;
 /// nothing measurable.
 pub const DEPTH_SLACK_PX: f32 = 0.0625;
 
-/// The box test's method code (`TestConfig::method`).
-pub fn method_code(method: Method) -> u32 {
-    match method {
-        Method::Hzb => 1,
-        Method::Hom | Method::Frustum | Method::Exact => 0,
+/// The box test's code (`TestConfig::method`).
+pub fn test_code(test: BoxTest) -> u32 {
+    match test {
+        BoxTest::Hom => 0,
+        BoxTest::Hzb => 1,
     }
 }
 
@@ -71,8 +72,8 @@ pub fn wgsl() -> String {
          const MOVING_OBJECT: u32 = {MOVING_OBJECT}u;\n\
          const LINEAR_WORKGROUP: u32 = {LINEAR_WORKGROUP}u;\n\
          const GRID_WORKGROUP: u32 = {GRID_WORKGROUP}u;\n",
-        method_code(Method::Hom),
-        method_code(Method::Hzb),
+        test_code(BoxTest::Hom),
+        test_code(BoxTest::Hzb),
         deb_code(DebVariant::Plane),
         deb_code(DebVariant::Tiles),
         deb_code(DebVariant::Raster),

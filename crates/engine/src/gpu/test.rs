@@ -1,7 +1,7 @@
 //! Per-object test pass: one invocation per (pose, test box), HOM or HZB, writing
 //! one visibility bit per object and pose. CPU twin: `hom/test.rs`.
 
-use homcull_proto::{DebVariant, Method};
+use homcull_proto::DebVariant;
 
 use super::arena::{BindCache, GrowBuffer, Upload};
 use super::counted::ComputePass;
@@ -9,10 +9,10 @@ use super::device::GpuDevice;
 use super::encode::{
     record_wide, slotted, storage_entry, texture_entry, uniform_entry, uniform_slot,
 };
-use super::prelude::{deb_code, method_code};
+use super::prelude::{deb_code, test_code};
 use super::pyramid::buffer_levels;
 use super::targets::SlotTargets;
-use crate::cull::PosePlan;
+use crate::cull::{BoxTest, PosePlan};
 use crate::reference::{MAX_LEVELS, pyramid::LevelLayout};
 
 /// `TestConfig` in `test.wgsl`: what is the same for every pose of a batch.
@@ -37,7 +37,7 @@ pub struct TestConfig {
 impl TestConfig {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
-        method: Method,
+        test: BoxTest,
         deb: DebVariant,
         layout: &LevelLayout,
         thresholds: &[f32],
@@ -54,7 +54,7 @@ impl TestConfig {
         }
         TestConfig {
             levels: layout.levels() as u32,
-            method: method_code(method),
+            method: test_code(test),
             deb: deb_code(deb),
             deb_tile,
             deb_cols,

@@ -60,12 +60,14 @@ mod test_triangles;
 
 use std::cell::RefCell;
 
-use homcull_proto::{DebVariant, Method};
+use homcull_proto::DebVariant;
 use rayon::prelude::*;
 
 use crate::camera::ScreenRect;
 use crate::cull::deb::DEPTH_MARGIN;
-use crate::cull::{CullError, CullSettings, Culler, PosePlan, PreparedScene, clear_bit, has_bit};
+use crate::cull::{
+    BoxTest, CullError, CullSettings, Culler, Passes, PosePlan, PreparedScene, clear_bit, has_bit,
+};
 use crate::reference::{ReferenceBackend, pyramid};
 use map::OcclusionMap;
 use refine::IdBuffer;
@@ -119,21 +121,23 @@ impl NativeBackend {
         s: &CullSettings,
         split: bool,
     ) -> Vec<u32> {
-        SCRATCH.with_borrow_mut(|sc| match s.options.method {
-            Method::Exact => refine::exact(&mut sc.ids, &prep.scene, &p.cam, &p.candidates),
-            // `frustum` reaches no backend (planning answers it); the map serves both
-            // tests.
-            Method::Hom | Method::Hzb | Method::Frustum => {
-                Self::hom(&mut sc.map, prep, p, s, split)
+        SCRATCH.with_borrow_mut(|sc| match s.passes() {
+            None => s.method.mask_from_plan(prep, p),
+            Some(Passes::Exact) => refine::exact(&mut sc.ids, &prep.scene, &p.cam, &p.candidates),
+            Some(Passes::Occlusion { test, refine }) => {
+                Self::occlusion(&mut sc.map, prep, p, s, test, refine, split)
             }
         })
     }
 
-    fn hom(
+    /// The occlusion passes: draw, box test `test`, and the refinement with `refine`.
+    fn occlusion(
         map: &mut OcclusionMap,
         prep: &PreparedScene,
         p: &PosePlan,
         s: &CullSettings,
+        test: BoxTest,
+        refine: bool,
         split: bool,
     ) -> Vec<u32> {
         let scene = &prep.scene;
@@ -141,12 +145,11 @@ impl NativeBackend {
         map.bands_in_parallel = split;
         // Drawing leaves the map bounded: the box test and the refinement read them.
         map.draw_occluders(scene, &p.cam, &p.occluders.ids);
-        let mut mask = if s.options.method == Method::Hzb || s.options.threshold < 1.0 {
-            Self::reference_test(map, p, s, prep)
-        } else {
-            Self::test_boxes(map, prep, p, s)
+        let mut mask = match test {
+            BoxTest::Hom if s.options.threshold >= 1.0 => Self::test_boxes(map, prep, p, s),
+            BoxTest::Hom | BoxTest::Hzb => Self::reference_test(map, p, s, prep),
         };
-        if s.refines() {
+        if refine {
             refine_survivors(&mut mask, prep, p, |c| {
                 refine::hidden_per_pixel(map, scene, &p.cam, c)
             });
@@ -216,6 +219,10 @@ fn box_test(map: &OcclusionMap, prep: &PreparedScene, p: &PosePlan, raster: bool
 }
 
 impl Culler for NativeBackend {
+    fn name(&self) -> &'static str {
+        "cpu"
+    }
+
     fn describe(&self) -> String {
         format!(
             "native CPU ({}, {} threads)",

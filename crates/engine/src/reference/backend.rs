@@ -2,13 +2,12 @@
 //! Slow and simple on purpose: it is the test oracle of the GPU passes, and the
 //! fallback when no adapter exists.
 
-use homcull_proto::Method;
-
 use super::pyramid::{self, LevelLayout};
 use super::raster::raster_depth;
 use super::test::{PyramidView, hom_occluded, hzb_occluded};
 use super::{level_thresholds, oracle, refine, triangles_of};
-use crate::cull::{CullError, CullSettings, Culler, PosePlan, PreparedScene};
+use crate::cull::method::masks_from_plans;
+use crate::cull::{BoxTest, CullError, CullSettings, Culler, Passes, PosePlan, PreparedScene};
 use crate::scene::Scene;
 
 /// The CPU reference of every pass.
@@ -27,7 +26,8 @@ impl ReferenceBackend {
         depth
     }
 
-    /// Visibility bitmask of the per-object test on a given pyramid.
+    /// Visibility bitmask of the method's box test on a given pyramid (a plan of a
+    /// method without one has no test boxes: every box is visible).
     pub fn test_boxes(
         scene: &Scene,
         p: &PosePlan,
@@ -42,12 +42,10 @@ impl ReferenceBackend {
             depth,
         };
         let thr = level_thresholds(s.options.threshold, layout.levels());
-        p.box_test(scene, |r| match s.options.method {
-            Method::Hzb => hzb_occluded(r, &view),
-            // Only the occluder methods reach the box test.
-            Method::Hom | Method::Frustum | Method::Exact => {
-                hom_occluded(r, &view, &thr, s.options.deb, &p.deb)
-            }
+        let test = s.box_test().unwrap_or(BoxTest::Hom);
+        p.box_test(scene, |r| match test {
+            BoxTest::Hzb => hzb_occluded(r, &view),
+            BoxTest::Hom => hom_occluded(r, &view, &thr, s.options.deb, &p.deb),
         })
     }
 
@@ -63,6 +61,10 @@ impl ReferenceBackend {
 }
 
 impl Culler for ReferenceBackend {
+    fn name(&self) -> &'static str {
+        "reference"
+    }
+
     fn describe(&self) -> String {
         "CPU reference (no GPU)".into()
     }
@@ -74,21 +76,22 @@ impl Culler for ReferenceBackend {
         s: &CullSettings,
     ) -> Result<Vec<Vec<u32>>, CullError> {
         let scene = &prep.scene;
-        Ok(plans
-            .iter()
-            .map(|p| match s.options.method {
-                Method::Exact => oracle::exact(scene, p),
-                Method::Hom | Method::Hzb | Method::Frustum => {
-                    let layout = LevelLayout::new(p.cam.width, p.cam.height);
-                    let occluders = Self::occluder_depth(scene, p);
-                    let (opacity, depth) = pyramid::build(&layout, &occluders);
-                    let mut mask = Self::test_boxes(scene, p, s, &layout, &opacity, &depth);
-                    if s.refines() {
-                        refine::refine(prep, p, &occluders, &mut mask);
-                    }
-                    mask
-                }
-            })
-            .collect())
+        let occlusion = |p: &PosePlan, refine: bool| {
+            let layout = LevelLayout::new(p.cam.width, p.cam.height);
+            let occluders = Self::occluder_depth(scene, p);
+            let (opacity, depth) = pyramid::build(&layout, &occluders);
+            let mut mask = Self::test_boxes(scene, p, s, &layout, &opacity, &depth);
+            if refine {
+                refine::refine(prep, p, &occluders, &mut mask);
+            }
+            mask
+        };
+        Ok(match s.passes() {
+            None => masks_from_plans(s.method, prep, plans),
+            Some(Passes::Exact) => plans.iter().map(|p| oracle::exact(scene, p)).collect(),
+            Some(Passes::Occlusion { test: _, refine }) => {
+                plans.iter().map(|p| occlusion(p, refine)).collect()
+            }
+        })
     }
 }

@@ -6,13 +6,13 @@
 
 use std::cell::RefCell;
 
-use homcull_proto::{DebVariant, Method};
+use homcull_proto::DebVariant;
 use rayon::prelude::*;
 
 use super::MaskedMap;
 use crate::camera::{Camera, ScreenRect};
 use crate::cull::deb::DEPTH_MARGIN;
-use crate::cull::{CullError, CullSettings, Culler, PosePlan, PreparedScene};
+use crate::cull::{BoxTest, CullError, CullSettings, Culler, PosePlan, PreparedScene};
 use crate::native::map::front_facing;
 use crate::native::refine::REFINE_MARGIN;
 use crate::native::span::span_triangles;
@@ -36,6 +36,10 @@ thread_local! {
 pub struct MaskedBackend;
 
 impl Culler for MaskedBackend {
+    fn name(&self) -> &'static str {
+        "cpu"
+    }
+
     fn describe(&self) -> String {
         format!(
             "native CPU, masked map ({}, {} threads)",
@@ -72,7 +76,7 @@ impl MaskedBackend {
     /// 1, raster DEB) of `hom`. The approximate thresholds, `hzb`, the box DEBs and
     /// `exact` read the per-pixel map.
     fn masked_answers(s: &CullSettings) -> bool {
-        s.options.method == Method::Hom
+        s.box_test() == Some(BoxTest::Hom)
             && s.options.threshold >= 1.0
             && s.options.deb == DebVariant::Raster
     }

@@ -1,0 +1,139 @@
+//! [`CullMethod`]: one type per culling method, and the one place the wire's methods
+//! are registered ([`of`]).
+//!
+//! A method is a recipe: what the shared planning prepares for it ([`Needs`]) and which
+//! image-space passes then cull its poses ([`Passes`]), or, for a method without
+//! passes, how its answer follows from the plan alone ([`CullMethod::mask_from_plan`]).
+//! Backends run passes, not methods: a method made of passes that exist is one new file
+//! (see `methods/`); a new pass is a [`Passes`] variant that every backend's match
+//! must then answer, with its work or with [`CullError::Unsupported`] (the compiler
+//! finds each one: the matches over it have no wildcard arm).
+//!
+//! A method on the wire is a variant of `homcull_proto::Method` and one arm of [`of`],
+//! whose match has no wildcard either, so a variant without its method does not
+//! compile; a library's own method (not on the wire) is given to a cull with
+//! [`super::CullSettings::with_method`].
+
+use homcull_proto::{CullOptions, DebVariant, Method};
+
+use super::mask::{empty_mask, set_bit};
+use super::methods::{Exact, Frustum, Hom, Hzb};
+use super::plan::PosePlan;
+use super::prepared::PreparedScene;
+
+#[cfg(doc)]
+use super::{CullError, Culler};
+
+/// One culling method. A cull checks [`CullMethod::runs_on`] with
+/// [`Culler::name`] before it plans.
+pub trait CullMethod: std::fmt::Debug + Send + Sync + 'static {
+    /// Its name: the wire name for a method of `homcull_proto::Method`.
+    fn name(&self) -> &'static str;
+
+    /// What the shared planning prepares for it under `options`.
+    fn needs(&self, options: &CullOptions) -> Needs;
+
+    /// The image-space passes that cull a batch of its planned poses under `options`,
+    /// on every backend that has them; `None`: the plan alone answers
+    /// ([`CullMethod::mask_from_plan`]).
+    fn passes(&self, options: &CullOptions) -> Option<Passes>;
+
+    /// Whether it runs on the backend of this short name (`Culler::name`); a cull on
+    /// one it does not run on is refused with [`CullError::Unsupported`]. Every
+    /// backend by default: each backend runs every [`Passes`] variant.
+    fn runs_on(&self, _backend: &str) -> bool {
+        true
+    }
+
+    /// The visibility bitmask of one planned pose, for a method without passes: by
+    /// default every candidate (frustum culling).
+    fn mask_from_plan(&self, prep: &PreparedScene, plan: &PosePlan) -> Vec<u32> {
+        let mut mask = empty_mask(prep.scene.objects.len());
+        plan.candidates.iter().for_each(|&c| set_bit(&mut mask, c));
+        mask
+    }
+}
+
+/// What the shared planning prepares for a method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Needs {
+    /// Occluders selected within the budget, and the in-frustum test boxes tested
+    /// against them.
+    pub occluders: bool,
+    /// The depth estimation buffer built from the occluders' boxes.
+    pub deb: DebVariant,
+}
+
+impl Needs {
+    /// Nothing beyond the frustum query.
+    pub const FRUSTUM: Needs = Needs {
+        occluders: false,
+        deb: DebVariant::Raster,
+    };
+}
+
+/// The image-space passes of a batch: what backends run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Passes {
+    /// The occluders drawn into an occlusion map, each in-frustum test box tested
+    /// against it, and with `refine` the survivors re-tested per pixel of their own
+    /// triangles.
+    Occlusion { test: BoxTest, refine: bool },
+    /// The exact ID-buffer oracle: every candidate rasterized, the objects owning a
+    /// pixel visible.
+    Exact,
+}
+
+/// How a test box is tested against the occlusion map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BoxTest {
+    /// HOM's test: opacity at the options' threshold, then the depth test against the
+    /// options' DEB.
+    Hom,
+    /// A hierarchical z-buffer: the farthest occluder depth over the box's rect.
+    Hzb,
+}
+
+/// The method of a wire name: the one registration of every method on the wire.
+pub fn of(method: Method) -> &'static dyn CullMethod {
+    match method {
+        Method::Hom => &Hom,
+        Method::Hzb => &Hzb,
+        Method::Frustum => &Frustum,
+        Method::Exact => &Exact,
+    }
+}
+
+/// [`CullMethod::mask_from_plan`] for every plan of a batch.
+pub fn masks_from_plans(
+    method: &dyn CullMethod,
+    prep: &PreparedScene,
+    plans: &[PosePlan],
+) -> Vec<Vec<u32>> {
+    plans
+        .iter()
+        .map(|p| method.mask_from_plan(prep, p))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_wire_method_is_registered_under_its_own_name() {
+        for m in Method::ALL {
+            assert_eq!(of(m).name(), m.name());
+        }
+    }
+
+    #[test]
+    fn only_the_occluder_methods_prepare_occluders() {
+        let o = CullOptions::default();
+        for m in Method::ALL {
+            let method = of(m);
+            let occlusion = matches!(method.passes(&o), Some(Passes::Occlusion { .. }));
+            assert_eq!(method.needs(&o).occluders, occlusion, "{}", m.name());
+        }
+    }
+}
