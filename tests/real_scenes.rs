@@ -16,7 +16,6 @@ use homcull::core::pvs::Pvs;
 use homcull::core::sampler::PoseSampler;
 use homcull::core::scene::{Scene, demo_city, load_path};
 use homcull::eval::{MethodSpec, evaluate};
-use homcull_proto::DebVariant;
 
 const POSES: usize = 200;
 
@@ -81,7 +80,7 @@ fn check_on(scene: Scene, backend: Backend) {
         "frustum",
     ]
     .iter()
-    .map(|m| MethodSpec::parse(m, 1.0, DebVariant::Raster, true).unwrap())
+    .map(|m| MethodSpec::with_defaults(m).unwrap())
     .collect();
     let mut engine = Engine::new(scene, OccluderParams::default(), backend);
     let report = evaluate(&mut engine, &cams, &methods, 16, pvs.as_ref(), false).unwrap();

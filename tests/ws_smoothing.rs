@@ -12,7 +12,9 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::server::TestServer;
-use common::ws::{Tracker, connect, full_frame_len, next_frame, pose_frame, rest_cull};
+use common::ws::{
+    Tracker, connect, connect_hello, full_frame_len, next_frame, pose_frame, rest_cull,
+};
 use futures_util::SinkExt;
 use homcull_proto::Pose;
 
@@ -144,6 +146,10 @@ async fn out_of_range_smoothing_options_are_refused() {
         "hold_ms=10001",
         "hold_ms=-1",
         "lookahead_ms=x",
+        "threshold=x",
+        "refine=maybe",
+        "threshold=2",
+        "lod_px=4,16",
     ] {
         let url = srv.ws_url(&format!("/v1/scenes/demo/stream?{q}"));
         match tokio_tungstenite::connect_async(url).await {
@@ -161,5 +167,29 @@ async fn out_of_range_smoothing_options_are_refused() {
             Err(e) => panic!("{q}: {e}"),
         }
     }
+    srv.stop().await;
+}
+
+/// The stream's cull options come from the one declaration (`CullOptionsQuery`):
+/// numbers and booleans read from the query string, the stream's defaults where none
+/// is given, and the hello echoes what the stream will cull with.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn stream_options_read_typed_from_the_query_over_the_streams_defaults() {
+    let srv = TestServer::start(|_| {}).await;
+    let (_ws, hello) = connect_hello(&srv, "").await;
+    let defaults = serde_json::to_value(homcull_proto::CullOptions::defaults(
+        homcull_proto::Surface::Stream,
+    ))
+    .unwrap();
+    assert_eq!(hello["options"], defaults, "{hello}");
+    assert_eq!(hello["options"]["refine"], false);
+    let q = "?method=hzb&threshold=0.5&deb=tiles&refine=true&lod_px=64,8&hold_ms=100";
+    let (_ws, hello) = connect_hello(&srv, q).await;
+    let o = &hello["options"];
+    assert_eq!(o["method"], "hzb", "{hello}");
+    assert_eq!(o["threshold"], 0.5);
+    assert_eq!(o["deb"], "tiles");
+    assert_eq!(o["refine"], true);
+    assert_eq!(o["lod"]["px"], serde_json::json!([64.0, 8.0]));
     srv.stop().await;
 }

@@ -7,7 +7,8 @@
 //!
 //! # Layout
 //! - [`Pose`]: a camera pose as clients send it.
-//! - [`CullOptions`], [`Method`], [`DebVariant`]: how to cull.
+//! - [`CullOptions`] (declared once with its defaults per [`Surface`]), [`Method`],
+//!   [`DebVariant`]: how to cull.
 //! - [`CullStats`], [`CullResponse`]: what a cull answers.
 //! - [`lod`]: level-of-detail thresholds ([`LodThresholds`]) and levels.
 //! - [`rest`]: the other JSON bodies of the REST API (scenes, objects, batches, errors).
@@ -17,9 +18,11 @@ use serde::{Deserialize, Serialize};
 
 pub mod frame;
 pub mod lod;
+mod options;
 pub mod rest;
 
 pub use lod::{InvalidLod, LodSpec, LodThresholds, MAX_LOD_THRESHOLDS};
+pub use options::{CullOptions, CullOptionsQuery, InvalidOptions, Surface};
 pub use rest::*;
 
 /// Version of the wire protocol; bumped on every incompatible change. Binary frames carry
@@ -145,6 +148,12 @@ impl Method {
     }
 }
 
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 impl std::str::FromStr for Method {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
@@ -183,6 +192,12 @@ impl DebVariant {
     }
 }
 
+impl std::fmt::Display for DebVariant {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 impl std::str::FromStr for DebVariant {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
@@ -192,70 +207,6 @@ impl std::str::FromStr for DebVariant {
             .ok_or_else(|| format!("unknown DEB variant `{s}` (expected plane, tiles or raster)"))
     }
 }
-
-/// How to cull: the options a client may set per request.
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct CullOptions {
-    /// Culling method.
-    pub method: Method,
-    /// Opacity threshold O_0 at the finest pyramid level; 1.0 is conservative.
-    pub threshold: f32,
-    /// Depth estimation buffer variant used by `hom`.
-    pub deb: DebVariant,
-    /// `hom` only: test the objects that pass the box test once more, per pixel of
-    /// their own triangles against the occluders (default true). Culls nearly every
-    /// hidden object a bounding box cannot; `false` is the box test alone.
-    pub refine: bool,
-    /// Level-of-detail hints (`{"px": [t1, t2, …]}`): when given, the answer carries a
-    /// level per visible object ([`lod`]). It does not change what is visible.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    #[cfg_attr(feature = "openapi", schema(value_type = Option<LodSpec>))]
-    pub lod: Option<LodThresholds>,
-}
-
-impl Default for CullOptions {
-    fn default() -> Self {
-        CullOptions {
-            method: Method::Hom,
-            threshold: 1.0,
-            deb: DebVariant::Raster,
-            refine: true,
-            lod: None,
-        }
-    }
-}
-
-impl CullOptions {
-    /// Checks what the types cannot: the opacity threshold lies in (0, 1]. Every entry
-    /// point (REST, stream, command line, library) calls this one check.
-    pub fn validate(&self) -> Result<(), InvalidOptions> {
-        let t = self.threshold;
-        if t > 0.0 && t <= 1.0 {
-            Ok(())
-        } else {
-            Err(InvalidOptions::Threshold(t))
-        }
-    }
-}
-
-/// Why [`CullOptions::validate`] refused options.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum InvalidOptions {
-    /// The opacity threshold is outside (0, 1] (or NaN).
-    Threshold(f32),
-}
-
-impl std::fmt::Display for InvalidOptions {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            InvalidOptions::Threshold(t) => write!(f, "threshold must be in (0, 1], got {t}"),
-        }
-    }
-}
-
-impl std::error::Error for InvalidOptions {}
 
 /// What one cull did, for clients and dashboards.
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]

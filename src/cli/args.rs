@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use homcull_proto::{DebVariant, Method};
+use homcull_proto::{CullOptions, CullOptionsQuery, DebVariant, InvalidLod, Method, Surface};
 
 use crate::core::engine::BackendChoice;
 use crate::core::occluders::OccluderParams;
@@ -38,14 +38,19 @@ pub struct BackendArgs {
     pub threads: usize,
 }
 
+/// The command line's cull options where a flag is not given.
+fn cli_default() -> CullOptions {
+    CullOptions::defaults(Surface::Cli)
+}
+
 /// Culling parameters shared by `cull` and `eval`.
 #[derive(Debug, Clone, Args)]
 pub struct CullParams {
     /// Opacity threshold O_0 (1.0 = conservative; below 1 culls through small holes).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = cli_default().threshold)]
     pub threshold: f32,
     /// Depth estimation buffer: plane, tiles or raster.
-    #[arg(long, default_value = "raster")]
+    #[arg(long, default_value_t = cli_default().deb)]
     pub deb: DebVariant,
     /// hom: the box test alone, without the per-pixel refinement of its survivors.
     #[arg(long)]
@@ -56,6 +61,23 @@ pub struct CullParams {
 }
 
 impl CullParams {
+    /// The cull options these flags give, with `method` and `lod_px`, over the command
+    /// line's defaults.
+    pub fn options(
+        &self,
+        method: Method,
+        lod_px: Option<String>,
+    ) -> Result<CullOptions, InvalidLod> {
+        CullOptionsQuery {
+            method: Some(method),
+            threshold: Some(self.threshold),
+            deb: Some(self.deb),
+            refine: self.no_refine.then_some(false),
+            lod_px,
+        }
+        .over(cli_default())
+    }
+
     /// The occluder database's parameters with this budget.
     pub fn occluder_params(&self) -> OccluderParams {
         OccluderParams {
@@ -75,7 +97,7 @@ pub struct CullArgs {
     #[arg(long)]
     pub pose: String,
     /// hom, hzb, frustum or exact.
-    #[arg(long, default_value = "hom")]
+    #[arg(long, default_value_t = cli_default().method)]
     pub method: Method,
     #[command(flatten)]
     pub params: CullParams,

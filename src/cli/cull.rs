@@ -1,7 +1,7 @@
 //! `homcull cull`: one pose on one scene, the answer as JSON on stdout.
 
 use anyhow::{Context, Result};
-use homcull_proto::{CullOptions, CullResponse, LodThresholds, Pose};
+use homcull_proto::{CullResponse, Pose};
 
 use super::args::CullArgs;
 use super::{load_scene, open_backend};
@@ -13,17 +13,7 @@ use crate::core::resident::{Residency, ResidentScene};
 pub fn run(a: CullArgs) -> Result<()> {
     let pose: Pose = serde_json::from_str(&a.pose).context("parsing --pose")?;
     let eyes = stereo::eyes(&pose)?;
-    let options = CullOptions {
-        method: a.method,
-        threshold: a.params.threshold,
-        deb: a.params.deb,
-        refine: !a.params.no_refine,
-        lod: a
-            .lod_px
-            .as_deref()
-            .map(LodThresholds::parse_list)
-            .transpose()?,
-    };
+    let options = a.params.options(a.method, a.lod_px.clone())?;
     options.validate()?;
     let scene = load_scene(&a.scene)?;
     let mut resident = ResidentScene::assemble(

@@ -3,7 +3,7 @@
 //! `report`.
 
 use anyhow::{Context, Result, bail};
-use homcull_proto::Pose;
+use homcull_proto::{Method, Pose};
 
 use super::eval_args::{AnimateArgs, EvalArgs, LoadgenArgs, ReportArgs};
 use super::{load_scene, open_backend};
@@ -17,8 +17,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
         .methods
         .iter()
         .map(|m| {
-            MethodSpec::parse(m, a.params.threshold, a.params.deb, !a.params.no_refine)
-                .map_err(anyhow::Error::msg)
+            MethodSpec::parse(m, a.params.options(Method::Hom, None)?).map_err(anyhow::Error::msg)
         })
         .collect::<Result<Vec<_>>>()?;
     let scene = load_scene(&a.scene)?;

@@ -8,7 +8,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use homcull_proto::{CullOptions, DebVariant, Method};
+use homcull_proto::{CullOptions, DebVariant, Method, Surface};
 use serde::Serialize;
 
 use crate::percentiles::Percentiles;
@@ -30,25 +30,31 @@ pub struct MethodSpec {
 impl MethodSpec {
     /// Parses `hom`, `hom-refine`, `hom-plane`, `hom-tiles`, `hom-raster`, `hzb`,
     /// `frustum`, `exact`. `hom-DEB` is the box test alone with that DEB, `hom-refine` the
-    /// raster DEB with per-pixel refinement; `threshold`, `deb` and `refine` are what plain
-    /// `hom` uses.
-    pub fn parse(s: &str, threshold: f32, deb: DebVariant, refine: bool) -> Result<Self, String> {
+    /// raster DEB with per-pixel refinement; plain `hom` and the others take `base`'s
+    /// threshold, DEB and refinement.
+    pub fn parse(s: &str, base: CullOptions) -> Result<Self, String> {
         let (method, deb, refine) = match s.split_once('-') {
             Some(("hom", "refine")) => (Method::Hom, DebVariant::Raster, true),
             Some(("hom", v)) => (Method::Hom, v.parse::<DebVariant>()?, false),
             Some(_) => return Err(format!("unknown method `{s}`")),
-            None => (s.parse::<Method>()?, deb, refine),
+            None => (s.parse::<Method>()?, base.deb, base.refine),
         };
         Ok(MethodSpec {
             name: s.to_string(),
             options: CullOptions {
                 method,
-                threshold,
                 deb,
                 refine,
                 lod: None,
+                ..base
             },
         })
+    }
+
+    /// [`MethodSpec::parse`] over the command line's defaults
+    /// (`CullOptions::defaults(Surface::Cli)`).
+    pub fn with_defaults(s: &str) -> Result<Self, String> {
+        Self::parse(s, CullOptions::defaults(Surface::Cli))
     }
 }
 

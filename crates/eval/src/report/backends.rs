@@ -26,8 +26,7 @@ pub(super) fn section(r: &mut Report, scenes: &[Loaded], evals: &[EvalReport]) -
         return Ok(());
     }
     let p = r.plan.clone();
-    let refined = MethodSpec::parse("hom-refine", 1.0, Default::default(), true)
-        .map_err(anyhow::Error::msg)?;
+    let refined = MethodSpec::with_defaults("hom-refine").map_err(anyhow::Error::msg)?;
     let native = Backend::Native;
     let mut rows = Vec::new();
     for (i, l) in scenes.iter().enumerate() {

@@ -55,8 +55,7 @@ pub(super) fn section(r: &mut Report, scenes: &[Loaded]) -> Result<()> {
          |---|---:|---:|---:|---:|---:|---:|",
         p.budget_poses, p.viewport[0], p.viewport[1]
     );
-    let refined = MethodSpec::parse("hom-refine", 1.0, Default::default(), true)
-        .map_err(anyhow::Error::msg)?;
+    let refined = MethodSpec::with_defaults("hom-refine").map_err(anyhow::Error::msg)?;
     let mut series = Vec::new();
     let picked: Vec<_> = MOVERS
         .iter()

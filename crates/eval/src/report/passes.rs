@@ -4,7 +4,6 @@
 use std::fmt::Write as _;
 
 use anyhow::Result;
-use homcull_proto::DebVariant;
 
 use super::context::{Report, progress};
 use super::scenes::Loaded;
@@ -42,7 +41,7 @@ pub(super) fn section(r: &mut Report, scenes: &[Loaded]) -> Result<()> {
     );
     let methods = METHODS
         .iter()
-        .map(|m| MethodSpec::parse(m, 1.0, DebVariant::Raster, true).map_err(anyhow::Error::msg))
+        .map(|m| MethodSpec::with_defaults(m).map_err(anyhow::Error::msg))
         .collect::<Result<Vec<_>>>()?;
     for (i, l) in scenes.iter().enumerate() {
         progress("GPU passes", i, scenes.len(), &l.scene.name);

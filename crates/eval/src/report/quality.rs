@@ -4,7 +4,6 @@
 use std::fmt::Write as _;
 
 use anyhow::Result;
-use homcull_proto::DebVariant;
 
 use super::context::{
     QUALITY_METHODS, Report, TARGET_SCENES, THRESHOLDS, over, progress, spec, threshold_name,
@@ -23,7 +22,7 @@ pub(super) fn section(r: &mut Report, scenes: &[Loaded]) -> Result<Vec<EvalRepor
     let p = r.plan.clone();
     let mut methods = QUALITY_METHODS
         .iter()
-        .map(|m| MethodSpec::parse(m, 1.0, DebVariant::Raster, true).map_err(anyhow::Error::msg))
+        .map(|m| MethodSpec::with_defaults(m).map_err(anyhow::Error::msg))
         .collect::<Result<Vec<_>>>()?;
     methods.extend(THRESHOLDS[1..].iter().map(|&t| spec(&threshold_name(t), t)));
     let mut evals = Vec::new();

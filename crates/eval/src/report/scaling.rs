@@ -18,7 +18,7 @@ use homcull_engine::scene::{demo_city, demo_city_sized};
 
 /// HOM as served by default: raster DEB with the per-pixel refinement.
 fn refined() -> Result<MethodSpec> {
-    MethodSpec::parse("hom-refine", 1.0, Default::default(), true).map_err(anyhow::Error::msg)
+    MethodSpec::with_defaults("hom-refine").map_err(anyhow::Error::msg)
 }
 
 fn slope_text(points: &[(f64, f64)]) -> String {
@@ -50,7 +50,7 @@ pub(super) fn viewport(r: &mut Report) -> Result<()> {
     let methods = [
         refined()?,
         spec("hom-raster", 1.0),
-        MethodSpec::parse("hzb", 1.0, Default::default(), true).map_err(anyhow::Error::msg)?,
+        MethodSpec::with_defaults("hzb").map_err(anyhow::Error::msg)?,
     ];
     let _ = writeln!(
         r.md,
@@ -217,7 +217,7 @@ pub(super) fn objects(r: &mut Report) -> Result<()> {
     let methods = [
         refined()?,
         spec("hom-raster", 1.0),
-        MethodSpec::parse("frustum", 1.0, Default::default(), true).map_err(anyhow::Error::msg)?,
+        MethodSpec::with_defaults("frustum").map_err(anyhow::Error::msg)?,
     ];
     let _ = writeln!(
         r.md,

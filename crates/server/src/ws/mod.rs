@@ -33,13 +33,14 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
+use axum::extract::rejection::QueryRejection;
 use axum::extract::ws::{CloseFrame, Message, Utf8Bytes, WebSocket, WebSocketUpgrade};
 use axum::extract::{Extension, Path, Query, State};
 use axum::response::Response;
 use futures_util::{SinkExt, StreamExt};
 use glam::Vec3;
 use homcull_proto::frame::{ErrorCode, ErrorFrame, Frame, Hello};
-use homcull_proto::{CullOptions, DebVariant, LodThresholds, Method, PROTOCOL_VERSION, Pose};
+use homcull_proto::{CullOptions, CullOptionsQuery, PROTOCOL_VERSION, Pose, Surface};
 use serde::Deserialize;
 use tokio::sync::{Mutex, Notify, mpsc};
 
@@ -61,20 +62,10 @@ const MAX_CLIENT_MESSAGE: usize = 64 << 10;
 /// Consecutive malformed messages after which the socket is closed.
 const MAX_BAD_MESSAGES: u32 = 64;
 
-/// Options of a stream, from the query string.
+/// A stream's own choices, from the query string beside its cull options
+/// ([`CullOptionsQuery`], whose defaults for streams are `CullOptions::defaults`'s).
 #[derive(Debug, Deserialize, utoipa::IntoParams)]
 pub struct StreamQuery {
-    /// hom (default), hzb, frustum or exact.
-    pub method: Option<Method>,
-    /// Opacity threshold O_0 in (0, 1]; 1 (default) is conservative.
-    pub threshold: Option<f32>,
-    /// plane, tiles or raster (default).
-    pub deb: Option<DebVariant>,
-    /// hom only: refine the box test per pixel. Default **false** for streams (true for
-    /// `POST /cull`): the refinement is exact for the pose sent, and a moving client that
-    /// draws the answer a round trip later sees the slivers it reveals late, which the
-    /// box test's slack covers (see README, "Smoothing").
-    pub refine: Option<bool>,
     /// Also cull the pose extrapolated this far ahead along the client's recent motion
     /// and stream the union (0 = off, the default; at most 1000). Covers what walking
     /// reveals during a round trip.
@@ -87,9 +78,6 @@ pub struct StreamQuery {
     /// cannot take every in-frustum occluder; then the set may be smaller than
     /// `POST /cull`'s for the same pose (never missing what the pose shows).
     pub seen_first: Option<bool>,
-    /// Level-of-detail thresholds in pixels, largest first (`lod_px=64,16,4`): every
-    /// frame then carries a level per object it sends (see `homcull_proto::lod`).
-    pub lod_px: Option<String>,
     /// Before a frame, a JSON text message with the scene version it was culled at and
     /// where its moved objects are, when either changed (default false).
     pub placements: Option<bool>,
@@ -114,31 +102,24 @@ struct Smoothing {
 
 /// Opens a visibility stream (WebSocket upgrade). See the README for the frame layout.
 #[utoipa::path(get, path = "/v1/scenes/{id}/stream",
-    params(("id" = String, Path, description = "scene id"), StreamQuery),
+    params(("id" = String, Path, description = "scene id"), CullOptionsQuery, StreamQuery),
     responses((status = 101, description = "switching to WebSocket"),
         (status = 404, body = homcull_proto::ErrorBody), (status = 503, body = homcull_proto::ErrorBody)))]
 pub async fn stream(
     State(state): State<AppState>,
     connection: Option<Extension<ConnectionSlot>>,
     Path(id): Path<String>,
-    query: Result<Query<StreamQuery>, axum::extract::rejection::QueryRejection>,
+    options: Result<Query<CullOptionsQuery>, QueryRejection>,
+    query: Result<Query<StreamQuery>, QueryRejection>,
     headers: axum::http::HeaderMap,
     ws: WebSocketUpgrade,
 ) -> Result<Response, ApiError> {
-    let Query(q) = query.map_err(|e| ApiError::bad_request("bad_query", e.body_text()))?;
-    let defaults = CullOptions::default();
-    let options = CullOptions {
-        method: q.method.unwrap_or(defaults.method),
-        threshold: q.threshold.unwrap_or(defaults.threshold),
-        deb: q.deb.unwrap_or(defaults.deb),
-        refine: q.refine.unwrap_or(false),
-        lod: q
-            .lod_px
-            .as_deref()
-            .map(LodThresholds::parse_list)
-            .transpose()
-            .map_err(|e| ApiError::bad_request("invalid_options", e.to_string()))?,
-    };
+    let bad_query = |e: QueryRejection| ApiError::bad_request("bad_query", e.body_text());
+    let Query(q) = query.map_err(bad_query)?;
+    let Query(options) = options.map_err(bad_query)?;
+    let options = options
+        .over(CullOptions::defaults(Surface::Stream))
+        .map_err(|e| ApiError::bad_request("invalid_options", e.to_string()))?;
     options.validate()?;
     let smoothing = Smoothing {
         lookahead_ms: q.lookahead_ms.unwrap_or(0),
