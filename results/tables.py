@@ -10,7 +10,7 @@ Each generated table sits between two marker lines in its document,
 - `native` (docs/performance.md): every scene of the native run, every method.
 
 Usage: `python3 results/tables.py` rewrites the tables; `--check` exits 1 when a
-document differs from what the runs give (tests/results.rs runs it).
+document differs from what the runs give (tests/repo/results.rs runs it).
 """
 
 import json

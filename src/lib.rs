@@ -7,7 +7,7 @@
 //! exact ID-buffer oracle sees.
 //!
 //! # Crates by layer
-//! Each uses only the ones before it (`tests/architecture.rs` checks it):
+//! Each uses only the ones before it (`tests/repo/architecture.rs` checks it):
 //! - `homcull-proto` (`proto/`): the wire types and the binary frame codec.
 //! - [`core`] (`homcull-engine`, `crates/engine/`): scenes, cameras, occluders, the
 //!   `Culler` seam, its backends (wgpu, native CPU, the CPU reference) and the oracle;

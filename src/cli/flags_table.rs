@@ -1,6 +1,6 @@
 //! The command line as Markdown tables, one per subcommand, for README.md's
 //! "Command line" section. Made from the same clap definitions `--help` prints, so a
-//! test can hold README to them (`tests/cli.rs`): a flag added, renamed or dropped
+//! test can hold README to them (`tests/cli/cli.rs`): a flag added, renamed or dropped
 //! fails it until the table is made again (`HOMCULL_BLESS=1 cargo test --test cli`).
 
 use clap::CommandFactory;

@@ -400,7 +400,7 @@ async function main() {
   assert.deepEqual(hello, { lookahead_ms: 150, hold_ms: 300 }, "the viewer asks for its default smoothing");
   const smooth = await walkAtNormalSpeed("smoothing on");
   // Software Chromium draws about 13 frames/s here, so both walks see only a few late
-  // objects (0–5 in ~2,300 sightings) and comparing them is noise; tests/ws_smoothing.rs
+  // objects (0–5 in ~2,300 sightings) and comparing them is noise; tests/server/ws_smoothing.rs
   // measures what the lookahead saves at 60 Hz. Here: smoothing keeps within 0.25 %.
   assert.ok(smooth.popped <= 0.0025 * smooth.oracleSeen, `smoothing on: more than 0.25 % of oracle sightings not drawn: ${smooth.late.join("; ")}`);
 

@@ -1,5 +1,5 @@
-//! [`CullMethod`]: one type per culling method, and the one place the wire's methods
-//! are registered ([`of`]).
+//! [`CullMethod`]: one type per culling method (the wire's are in `methods/`, which
+//! registers them).
 //!
 //! A method is a recipe: what the shared planning prepares for it ([`Needs`]) and which
 //! image-space passes then cull its poses ([`Passes`]), or, for a method without
@@ -9,17 +9,16 @@
 //! must then answer, with its work or with [`CullError::Unsupported`] (the compiler
 //! finds each one: the matches over it have no wildcard arm).
 //!
-//! A method on the wire is a variant of `homcull_proto::Method` and one arm of [`of`],
-//! whose match has no wildcard either, so a variant without its method does not
+//! A method on the wire is a variant of `homcull_proto::Method` and one arm of
+//! [`super::methods::of`], whose match has no wildcard either, so a variant without its method does not
 //! compile; a library's own method (not on the wire) is given to a cull with
 //! [`super::CullSettings::with_method`].
 
-use homcull_proto::{CullOptions, DebVariant, Method};
+use homcull_proto::{CullOptions, DebVariant};
 
 use super::mask::{empty_mask, set_bit};
-use super::methods::{Exact, Frustum, Hom, Hzb};
-use super::plan::PosePlan;
 use super::prepared::PreparedScene;
+use crate::camera::Camera;
 
 #[cfg(doc)]
 use super::{CullError, Culler};
@@ -45,11 +44,12 @@ pub trait CullMethod: std::fmt::Debug + Send + Sync + 'static {
         true
     }
 
-    /// The visibility bitmask of one planned pose, for a method without passes: by
-    /// default every candidate (frustum culling).
-    fn mask_from_plan(&self, prep: &PreparedScene, plan: &PosePlan) -> Vec<u32> {
+    /// The visibility bitmask of one planned pose from its camera and its in-frustum
+    /// `candidates` (ascending), for a method without passes: by default every
+    /// candidate (frustum culling).
+    fn mask_from_plan(&self, prep: &PreparedScene, _cam: &Camera, candidates: &[u32]) -> Vec<u32> {
         let mut mask = empty_mask(prep.scene.objects.len());
-        plan.candidates.iter().for_each(|&c| set_bit(&mut mask, c));
+        candidates.iter().for_each(|&c| set_bit(&mut mask, c));
         mask
     }
 }
@@ -92,48 +92,4 @@ pub enum BoxTest {
     Hom,
     /// A hierarchical z-buffer: the farthest occluder depth over the box's rect.
     Hzb,
-}
-
-/// The method of a wire name: the one registration of every method on the wire.
-pub fn of(method: Method) -> &'static dyn CullMethod {
-    match method {
-        Method::Hom => &Hom,
-        Method::Hzb => &Hzb,
-        Method::Frustum => &Frustum,
-        Method::Exact => &Exact,
-    }
-}
-
-/// [`CullMethod::mask_from_plan`] for every plan of a batch.
-pub fn masks_from_plans(
-    method: &dyn CullMethod,
-    prep: &PreparedScene,
-    plans: &[PosePlan],
-) -> Vec<Vec<u32>> {
-    plans
-        .iter()
-        .map(|p| method.mask_from_plan(prep, p))
-        .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_wire_method_is_registered_under_its_own_name() {
-        for m in Method::ALL {
-            assert_eq!(of(m).name(), m.name());
-        }
-    }
-
-    #[test]
-    fn only_the_occluder_methods_prepare_occluders() {
-        let o = CullOptions::default();
-        for m in Method::ALL {
-            let method = of(m);
-            let occlusion = matches!(method.passes(&o), Some(Passes::Occlusion { .. }));
-            assert_eq!(method.needs(&o).occluders, occlusion, "{}", m.name());
-        }
-    }
 }

@@ -3,6 +3,7 @@
 //! depth estimation buffer. A backend then runs the image-space work on the plan.
 
 use super::mask::{empty_mask, has_bit, set_bit, set_bits};
+use super::method::CullMethod;
 use super::prepared::PreparedScene;
 use super::settings::CullSettings;
 use crate::camera::{Camera, ScreenRect};
@@ -126,4 +127,16 @@ pub fn plan_with(
         occluders,
         deb,
     }
+}
+
+/// [`CullMethod::mask_from_plan`] for every plan of a batch.
+pub fn masks_from_plans(
+    method: &dyn CullMethod,
+    prep: &PreparedScene,
+    plans: &[PosePlan],
+) -> Vec<Vec<u32>> {
+    plans
+        .iter()
+        .map(|p| method.mask_from_plan(prep, &p.cam, &p.candidates))
+        .collect()
 }

@@ -4,7 +4,8 @@
 use homcull_proto::{CullOptions, DebVariant};
 
 use super::error::CullError;
-use super::method::{self, BoxTest, CullMethod, Passes};
+use super::method::{BoxTest, CullMethod, Passes};
+use super::methods;
 use super::prepared::PreparedScene;
 use crate::cull::deb::DEFAULT_TILE;
 
@@ -12,7 +13,7 @@ use crate::cull::deb::DEFAULT_TILE;
 #[derive(Debug, Clone, Copy)]
 pub struct CullSettings {
     pub options: CullOptions,
-    /// The method that culls: `options.method`'s ([`method::of`]) unless replaced by
+    /// The method that culls: `options.method`'s ([`methods::of`]) unless replaced by
     /// [`CullSettings::with_method`].
     pub method: &'static dyn CullMethod,
     /// Occluder triangles rendered per pose.
@@ -34,7 +35,7 @@ impl CullSettings {
     pub fn new(options: CullOptions, prepared: &PreparedScene) -> Self {
         CullSettings {
             options,
-            method: method::of(options.method),
+            method: methods::of(options.method),
             budget_triangles: prepared.occluders.params.budget_triangles,
             deb_tile: DEFAULT_TILE,
         }

@@ -27,7 +27,7 @@ use super::raster::RasterKind;
 use super::readback::{read_buffer, read_occlusion, submit_read};
 use super::scene_buffers::SceneBuffers;
 use super::targets::{SlotTargets, slots_for};
-use crate::cull::method::masks_from_plans;
+use crate::cull::plan::masks_from_plans;
 use crate::cull::{
     BoxTest, CullError, CullSettings, Culler, Pass, PassTimes, Passes, PosePlan, PreparedScene,
     StartedVisibility, has_bit, set_bit,

@@ -5,9 +5,9 @@
 //!
 //! A batch's cost on a GPU is mostly fixed costs per object created and per pass begun
 //! (barriers, descriptor writes, pass breaks), which a timing on a software adapter
-//! hides. `GpuDevice::counts` makes them visible anywhere: `tests/gpu_batch.rs`
+//! hides. `GpuDevice::counts` makes them visible anywhere: `tests/engine/gpu_batch.rs`
 //! asserts that a batch of 1 or 256 poses records the same passes and submissions, and
-//! that a second batch creates nothing. `tests/architecture.rs` keeps the raw wgpu
+//! that a second batch creates nothing. `tests/repo/architecture.rs` keeps the raw wgpu
 //! calls out of every file of `gpu/` but this one and `device.rs`, so nothing slips
 //! past the count.
 

@@ -122,7 +122,7 @@ impl NativeBackend {
         split: bool,
     ) -> Vec<u32> {
         SCRATCH.with_borrow_mut(|sc| match s.passes() {
-            None => s.method.mask_from_plan(prep, p),
+            None => s.method.mask_from_plan(prep, &p.cam, &p.candidates),
             Some(Passes::Exact) => refine::exact(&mut sc.ids, &prep.scene, &p.cam, &p.candidates),
             Some(Passes::Occlusion { test, refine }) => {
                 Self::occlusion(&mut sc.map, prep, p, s, test, refine, split)

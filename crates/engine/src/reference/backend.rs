@@ -6,7 +6,7 @@ use super::pyramid::{self, LevelLayout};
 use super::raster::raster_depth;
 use super::test::{PyramidView, hom_occluded, hzb_occluded};
 use super::{level_thresholds, oracle, refine, triangles_of};
-use crate::cull::method::masks_from_plans;
+use crate::cull::plan::masks_from_plans;
 use crate::cull::{BoxTest, CullError, CullSettings, Culler, Passes, PosePlan, PreparedScene};
 use crate::scene::Scene;
 
