@@ -161,6 +161,14 @@ pub(super) fn finish<C: Culler + ?Sized>(
     for batch in batches {
         masks.extend(culler.finish_visibility(batch)?);
     }
+    // Every method answers through `start_visibility`, one mask per plan: a missing
+    // mask is a backend bug, and answering all candidates would hide it.
+    if masks.len() != plans.len() {
+        return Err(CullError::Backend {
+            backend: culler.name(),
+            message: format!("{} masks for {} poses", masks.len(), plans.len()),
+        });
+    }
     // (`prep` may be a later version than the one planned: its copies are the same
     // pairs or fewer, `Copies::without_moved`, so the answer stays conservative.)
     if hides_copies {
@@ -172,17 +180,14 @@ pub(super) fn finish<C: Culler + ?Sized>(
     let objects = prep.scene.objects.len() as u32;
     Ok(plans
         .into_iter()
-        .enumerate()
-        .map(|(k, p)| {
-            let visible: Vec<u32> = match masks.get(k) {
-                Some(m) => p
-                    .candidates
-                    .iter()
-                    .copied()
-                    .filter(|&c| m[c as usize / 32] >> (c % 32) & 1 == 1)
-                    .collect(),
-                None => p.candidates.clone(),
-            };
+        .zip(&masks)
+        .map(|(p, m)| {
+            let visible: Vec<u32> = p
+                .candidates
+                .iter()
+                .copied()
+                .filter(|&c| m[c as usize / 32] >> (c % 32) & 1 == 1)
+                .collect();
             let stats = CullStats {
                 objects,
                 candidates: p.candidates.len() as u32,

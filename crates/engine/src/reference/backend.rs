@@ -89,6 +89,7 @@ impl Culler for ReferenceBackend {
         Ok(match s.passes() {
             None => masks_from_plans(s.method, prep, plans),
             Some(Passes::Exact) => plans.iter().map(|p| oracle::exact(scene, p)).collect(),
+            // (`test_boxes` reads the box test from `s` itself.)
             Some(Passes::Occlusion { test: _, refine }) => {
                 plans.iter().map(|p| occlusion(p, refine)).collect()
             }
