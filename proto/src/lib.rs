@@ -68,6 +68,35 @@ pub struct Pose {
     /// eye may see (see [`Stereo`]). Absent: one eye at `position`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stereo: Option<Stereo>,
+    /// Visibility from a region: the answer holds every object that an eye anywhere in
+    /// the region, looking any way it allows, may see (see [`Region`]). Absent: the
+    /// answer holds for the pose's own eye and view.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region: Option<Region>,
+}
+
+/// The eyes and view directions an answer holds for: every eye within `radius_m` of
+/// the pose's position, or every eye in `box` (which must hold the position); every
+/// view direction within `turn_deg` of the pose's, or every direction with
+/// `all_directions`. The pose's viewport and field of view fix the pixel size the
+/// answer is culled at; it holds for every eye's pixel grid.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Region {
+    /// Radius of the ball of eyes around `position`, metres, in (0, 5].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius_m: Option<f32>,
+    /// `[[x0, y0, z0], [x1, y1, z1]]`: the box of eyes (min and max corners), holding
+    /// `position`, its diagonal at most 10 m. Instead of `radius_m`.
+    #[serde(default, rename = "box", skip_serializing_if = "Option::is_none")]
+    pub bounds: Option<[[f32; 3]; 2]>,
+    /// View directions within this angle of the pose's, degrees, in [0, 45] (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub turn_deg: Option<f32>,
+    /// Every view direction (instead of `turn_deg`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub all_directions: bool,
 }
 
 /// Two eyes a few centimetres apart: `position` is the point between them, the eyes sit
@@ -113,6 +142,7 @@ impl Pose {
             near: default_near(),
             far: default_far(),
             stereo: None,
+            region: None,
         }
     }
 }

@@ -124,6 +124,7 @@ fn the_eye_that_sees_an_object_larger_sets_its_level() {
             near: 0.1,
             far: 1000.0,
             stereo: None,
+            region: None,
         })
         .unwrap()
     };

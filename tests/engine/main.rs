@@ -17,4 +17,5 @@ mod lod;
 mod native_backend;
 mod pvs_oracle;
 mod real_scenes;
+mod region;
 mod stereo;

@@ -19,7 +19,7 @@ const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 const LAYERS: [&str; 5] = ["proto", "core", "server", "eval", "cli"];
 
 /// The modules of `core/`, in order: each may use only itself and those before it.
-const CORE: [&str; 14] = [
+const CORE: [&str; 15] = [
     "geom",
     "camera",
     "scene",
@@ -27,6 +27,7 @@ const CORE: [&str; 14] = [
     "occluders",
     "cull",
     "dynamic",
+    "region",
     "reference",
     "native",
     "gpu",

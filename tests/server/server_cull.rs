@@ -338,3 +338,76 @@ async fn a_stereo_pose_answers_for_both_eyes() {
     }
     srv.stop().await;
 }
+
+/// A pose with a region answers for the whole region through `/cull` and `/cull/batch`
+/// (a superset of the point answer at its centre, the batch agreeing with the single
+/// pose); `exact` refuses a region with `region_unsupported`, and bad regions are an
+/// `invalid_pose` naming the field, with the batch pose's index.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_pose_with_a_region_answers_for_the_region() {
+    let srv = TestServer::start(|_| {}).await;
+    let http = reqwest::Client::new();
+    let cull = srv.url("/v1/scenes/demo/cull");
+    let pose = street_walk(1, [480, 270]).remove(0);
+    let mut asked = serde_json::to_value(&pose).unwrap();
+    asked["region"] = json!({"radius_m": 0.5, "turn_deg": 10});
+    let point: CullResponse = post_json(&http, cull.clone(), &json!({"pose": pose})).await;
+    let region: CullResponse = post_json(&http, cull.clone(), &json!({"pose": asked})).await;
+    let missing: Vec<_> = point
+        .visible
+        .iter()
+        .filter(|id| region.visible.binary_search(id).is_err())
+        .collect();
+    assert!(missing.is_empty(), "the region answer lacks {missing:?}");
+    assert!(region.stats.culled_by_occlusion > 0, "{:?}", region.stats);
+    let batch: BatchResponse = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/cull/batch"),
+        &json!({"poses": [pose, asked]}),
+    )
+    .await;
+    assert_eq!(batch.results[0].visible, point.visible);
+    assert_eq!(batch.results[1].visible, region.visible);
+    let refused = |r: reqwest::Response| async move {
+        let status = r.status();
+        let body: homcull_proto::ErrorBody = r.json().await.unwrap();
+        (status, body.error.code, body.error.message)
+    };
+    let exact = http
+        .post(cull.clone())
+        .json(&json!({"pose": asked, "options": {"method": "exact"}}))
+        .send()
+        .await
+        .unwrap();
+    let (status, code, _) = refused(exact).await;
+    assert_eq!(
+        (status.as_u16(), code.as_str()),
+        (400, "region_unsupported")
+    );
+    for (bad, field) in [
+        (json!({"radius_m": 0}), "region.radius_m"),
+        (json!({"radius_m": 1, "turn_deg": 90}), "region.turn_deg"),
+        (json!({"box": [[0, 0, 0], [1, 1, 1]]}), "region.box"),
+        (json!({}), "region"),
+    ] {
+        let mut p = serde_json::to_value(&pose).unwrap();
+        p["region"] = bad;
+        let r = http
+            .post(srv.url("/v1/scenes/demo/cull/batch"))
+            .json(&json!({"poses": [pose, p]}))
+            .send()
+            .await
+            .unwrap();
+        let (status, code, message) = refused(r).await;
+        assert_eq!(
+            (status.as_u16(), code.as_str()),
+            (400, "invalid_pose"),
+            "{message}"
+        );
+        assert!(
+            message.contains("pose 1") && message.contains(field),
+            "{message}"
+        );
+    }
+    srv.stop().await;
+}

@@ -15,13 +15,15 @@ use homcull_proto::CullOptions;
 
 use crate::camera::Camera;
 use crate::cull::{
-    CullError, CullSettings, Culler, PassTimes, Placed, PoseResult, PreparedScene, StartedCull,
+    CullError, CullSettings, Culler, PassTimes, Passes, Placed, PoseResult, PreparedScene,
+    StartedCull,
 };
 use crate::dynamic::{Dynamics, snapshot};
 use crate::gpu::{GpuBackend, GpuContext, GpuError, require_gpu};
 use crate::native::NativeBackend;
 use crate::occluders::OccluderParams;
 use crate::reference::ReferenceBackend;
+use crate::region;
 use crate::scene::Scene;
 
 /// The backend a process asks for.
@@ -250,9 +252,7 @@ impl Engine {
         cams: &[Camera],
         settings: &CullSettings,
     ) -> Result<Vec<PoseResult>, CullError> {
-        self.refresh();
-        let results = self.backend.cull(&self.prepared, cams, settings)?;
-        Ok(self.named(results))
+        self.cull_preferring(cams, settings, &[])
     }
 
     /// See [`Culler::cull_preferring`].
@@ -262,10 +262,8 @@ impl Engine {
         settings: &CullSettings,
         prefer: &[&[u32]],
     ) -> Result<Vec<PoseResult>, CullError> {
-        self.refresh();
-        let results = self
-            .backend
-            .cull_preferring(&self.prepared, cams, settings, prefer)?;
+        let started = self.start_cull(cams, settings, prefer)?;
+        let results = self.finish_cull(started)?;
         Ok(self.named(results))
     }
 
@@ -277,6 +275,48 @@ impl Engine {
         prefer: &[&[u32]],
     ) -> Result<StartedCull, CullError> {
         self.refresh();
+        // Region poses are answered here, on the CPU, whatever the backend
+        // (`core::region`); the backend plans and culls the others.
+        if !cams.iter().any(|c| c.region.is_some()) {
+            return self.start_planned(cams, settings, prefer);
+        }
+        if settings.passes() == Some(Passes::Exact) {
+            return Err(CullError::RegionUnsupported {
+                method: settings.method.name(),
+            });
+        }
+        settings.validate()?;
+        let (mut points, mut point_prefer) = (Vec::new(), Vec::new());
+        let mut regions = Vec::new();
+        for (k, cam) in cams.iter().enumerate() {
+            match &cam.region {
+                Some(r) => regions.push((k, cam, *r)),
+                None => {
+                    points.push(cam.clone());
+                    point_prefer.push(prefer.get(k).copied().unwrap_or(&[]));
+                }
+            }
+        }
+        let prep = &self.prepared;
+        let answered = {
+            use rayon::prelude::*;
+            regions
+                .par_iter()
+                .map(|(k, cam, r)| (*k, region::cull(prep, cam, r, settings)))
+                .collect()
+        };
+        Ok(self
+            .start_planned(&points, settings, &point_prefer)?
+            .with_answered(answered))
+    }
+
+    /// [`Engine::start_cull`] of cameras without a region: the backend's.
+    fn start_planned(
+        &mut self,
+        cams: &[Camera],
+        settings: &CullSettings,
+        prefer: &[&[u32]],
+    ) -> Result<StartedCull, CullError> {
         let mut started = self
             .backend
             .start_cull(&self.prepared, cams, settings, prefer)?;

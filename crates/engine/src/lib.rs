@@ -33,6 +33,7 @@ pub mod native;
 pub mod occluders;
 pub mod pvs;
 pub mod reference;
+pub mod region;
 pub mod resident;
 pub mod sampler;
 pub mod scene;

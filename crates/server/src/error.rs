@@ -99,6 +99,9 @@ impl From<homcull_engine::cull::CullError> for ApiError {
         match e {
             CullError::Options(o) => o.into(),
             CullError::Unsupported { .. } => Self::bad_request("method_unsupported", e.to_string()),
+            CullError::RegionUnsupported { .. } => {
+                Self::bad_request("region_unsupported", e.to_string())
+            }
             CullError::Backend { .. } => Self::internal(e.to_string()),
         }
     }

@@ -79,6 +79,7 @@ use store::Store;
     ),
     components(schemas(
         homcull_proto::Pose,
+        homcull_proto::Region,
         homcull_proto::CullOptions,
         homcull_proto::Method,
         homcull_proto::DebVariant,

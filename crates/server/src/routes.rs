@@ -312,7 +312,8 @@ pub async fn delete_scene(
 
 /// Refuses a request whose poses render more pixels in all than the server allows.
 fn within_work_budget(state: &AppState, cams: &[Camera]) -> Result<(), ApiError> {
-    let pixels: u64 = cams.iter().map(|c| c.width as u64 * c.height as u64).sum();
+    // A region pose draws its maps, wider than its viewport (`core::region`).
+    let pixels: u64 = cams.iter().map(homcull_engine::region::pixels).sum();
     let max = state.config.max_request_pixels;
     if pixels > max {
         return Err(ApiError::new(

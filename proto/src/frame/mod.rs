@@ -394,14 +394,16 @@ impl PoseFrame {
             near: self.near,
             far: self.far,
             stereo: self.stereo,
+            region: None,
         }
     }
 
-    /// A frame carrying `pose`, or `None` if the pose uses `look_at` or `up`: the binary
-    /// frame carries only quaternions. A pose with neither `rotation` nor `look_at` looks
-    /// along −Z, which is the identity quaternion `[0, 0, 0, 1]`.
+    /// A frame carrying `pose`, or `None` if the pose uses `look_at` or `up` (the binary
+    /// frame carries only quaternions) or a region (no frame of this protocol version
+    /// carries one). A pose with neither `rotation` nor `look_at` looks along −Z, which
+    /// is the identity quaternion `[0, 0, 0, 1]`.
     pub fn from_pose(seq: u32, want_full: bool, pose: &Pose) -> Option<PoseFrame> {
-        if pose.look_at.is_some() || pose.up.is_some() {
+        if pose.look_at.is_some() || pose.up.is_some() || pose.region.is_some() {
             return None;
         }
         Some(PoseFrame {

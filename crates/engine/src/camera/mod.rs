@@ -25,9 +25,11 @@ use crate::geom::{Aabb, Plane};
 #[cfg(target_arch = "x86_64")]
 mod avx;
 mod frustum;
+pub mod region;
 pub mod stereo;
 
 pub use frustum::FrustumPlanes;
+pub use region::Region;
 
 /// Largest accepted viewport side in pixels.
 pub const MAX_VIEWPORT_SIDE: u32 = 8192;
@@ -57,6 +59,9 @@ pub enum PoseError {
     Ipd(f32),
     #[error("stereo.convergence_m must be finite and beyond near ({near}), got {convergence}")]
     Convergence { convergence: f32, near: f32 },
+    /// A region field out of its range (`region::Region::of`).
+    #[error("{field} {why}")]
+    Region { field: &'static str, why: String },
 }
 
 /// A validated pose with its matrices and frustum.
@@ -85,6 +90,9 @@ pub struct Camera {
     /// [`stereo::eyes`]); `None`: this camera's own frustum. Which occluders are drawn
     /// never decides whether culling is conservative, only how much it culls.
     pub selection: Option<Arc<Camera>>,
+    /// The region of eyes and directions the answer must hold for (`core::region`
+    /// culls such a camera); `None`: this camera's eye and view only.
+    pub region: Option<Region>,
 }
 
 fn finite(name: &'static str, v: &[f32]) -> Result<(), PoseError> {
@@ -150,15 +158,11 @@ impl Camera {
             }
             (None, None) => Mat4::from_translation(-eye),
         };
-        Ok(Camera::from_view(
-            eye,
-            view,
-            pose.fov_y_deg,
-            w,
-            h,
-            pose.near,
-            pose.far,
-        ))
+        let region = Region::of(pose)?;
+        Ok(Camera {
+            region,
+            ..Camera::from_view(eye, view, pose.fov_y_deg, w, h, pose.near, pose.far)
+        })
     }
 
     /// Builds a camera from an already valid view matrix.
@@ -216,6 +220,7 @@ impl Camera {
             shift,
             planes,
             selection: None,
+            region: None,
         }
     }
 

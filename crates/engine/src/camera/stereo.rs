@@ -43,6 +43,13 @@ pub fn eyes(pose: &Pose) -> Result<Vec<Camera>, PoseError> {
     let Some(stereo) = pose.stereo else {
         return Ok(vec![center]);
     };
+    if center.region.is_some() {
+        return Err(PoseError::Region {
+            field: "region",
+            why: "is not taken with stereo yet: give the region that holds both eyes instead"
+                .into(),
+        });
+    }
     let ipd = stereo.ipd_m;
     if !(ipd.is_finite() && ipd > 0.0 && ipd <= MAX_IPD_M) {
         return Err(PoseError::Ipd(ipd));

@@ -15,6 +15,10 @@ pub enum CullError {
         /// The backend's short name (`Culler::name`).
         backend: &'static str,
     },
+    /// The method does not answer for a region of eyes (`exact`: the oracle is
+    /// one eye's).
+    #[error("method `{method}` does not take a region")]
+    RegionUnsupported { method: &'static str },
     /// The backend could not run the batch (a device lost, a readback that failed).
     #[error("{backend}: {message}")]
     Backend {

@@ -7,7 +7,10 @@ use super::copies::Copies;
 use super::mask::has_bit;
 use crate::bvh::BoxBvh;
 use crate::occluders::{OccluderDb, OccluderParams};
+use std::sync::{Arc, OnceLock};
+
 use crate::scene::Scene;
+use crate::scene::edges::EdgeNeighbours;
 
 /// A scene with the structures culling needs, built once and kept resident.
 pub struct PreparedScene {
@@ -24,6 +27,10 @@ pub struct PreparedScene {
     /// Objects that are exact copies of earlier ones, which the exact oracle never
     /// shows ([`Copies`]): the refinement culls them.
     pub copies: Copies,
+    /// The neighbour across each edge of the occluders' triangles, found on first use
+    /// by a region cull and shared by the later versions of the scene
+    /// (`scene::edges`).
+    pub edges: Arc<OnceLock<EdgeNeighbours>>,
 }
 
 impl PreparedScene {
@@ -44,7 +51,14 @@ impl PreparedScene {
             moving: Vec::new(),
             moved_since_build: 0,
             copies,
+            edges: Arc::default(),
         }
+    }
+
+    /// See [`PreparedScene::edges`].
+    pub fn edge_neighbours(&self) -> &EdgeNeighbours {
+        self.edges
+            .get_or_init(|| EdgeNeighbours::build(&self.scene, &self.occluders.ids))
     }
 
     /// Whether object `id`'s test boxes bound a motion: only the box test judges it.

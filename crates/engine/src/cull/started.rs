@@ -42,12 +42,23 @@ pub struct StartedCull {
     /// carry them).
     pub scene_version: u64,
     pub placed: Option<super::Placed>,
+    /// Poses answered apart from the plans (region poses, `core::region`): their
+    /// place among all the poses, ascending, and their answers.
+    answered: Vec<(usize, PoseResult)>,
 }
 
 impl StartedCull {
     /// Poses in the cull.
     pub fn poses(&self) -> usize {
-        self.plans.len()
+        self.plans.len() + self.answered.len()
+    }
+
+    /// Adds poses answered apart from the plans: `(place among all the poses of the
+    /// cull, answer)`, places ascending; the planned poses fill the other places in
+    /// their order.
+    pub fn with_answered(mut self, answered: Vec<(usize, PoseResult)>) -> Self {
+        self.answered = answered;
+        self
     }
 
     /// Whether some of its work is still on a device.
@@ -102,6 +113,7 @@ pub(super) fn start<C: Culler + ?Sized>(
         hides_copies: s.refines() && !prep.copies.is_empty(),
         scene_version: 0,
         placed: None,
+        answered: Vec::new(),
     })
 }
 
@@ -155,6 +167,7 @@ pub(super) fn finish<C: Culler + ?Sized>(
         hides_copies,
         scene_version,
         placed,
+        answered,
     } = started;
     let image = Instant::now();
     let mut masks = Vec::with_capacity(plans.len());
@@ -178,35 +191,50 @@ pub(super) fn finish<C: Culler + ?Sized>(
     let n = plans.len().max(1) as f64;
     let total_ms = started.elapsed().as_secs_f64() * 1e3 / n;
     let objects = prep.scene.objects.len() as u32;
-    Ok(plans
-        .into_iter()
-        .zip(&masks)
-        .map(|(p, m)| {
-            let visible: Vec<u32> = p
-                .candidates
-                .iter()
-                .copied()
-                .filter(|&c| m[c as usize / 32] >> (c % 32) & 1 == 1)
-                .collect();
-            let stats = CullStats {
-                objects,
-                candidates: p.candidates.len() as u32,
-                culled_by_frustum: objects - p.candidates.len() as u32,
-                culled_by_occlusion: (p.candidates.len() - visible.len()) as u32,
-                occluders_used: p.occluders.ids.len() as u32,
-                occluder_triangles: p.occluders.triangles,
-                gpu_ms: image_ms / n,
-                total_ms,
-                scene_version,
-            };
-            PoseResult {
-                visible,
-                candidates: p.candidates,
-                stats,
-                placed: placed.clone(),
+    let mut planned = plans.into_iter().zip(&masks).map(|(p, m)| {
+        let visible: Vec<u32> = p
+            .candidates
+            .iter()
+            .copied()
+            .filter(|&c| m[c as usize / 32] >> (c % 32) & 1 == 1)
+            .collect();
+        let stats = CullStats {
+            objects,
+            candidates: p.candidates.len() as u32,
+            culled_by_frustum: objects - p.candidates.len() as u32,
+            culled_by_occlusion: (p.candidates.len() - visible.len()) as u32,
+            occluders_used: p.occluders.ids.len() as u32,
+            occluder_triangles: p.occluders.triangles,
+            gpu_ms: image_ms / n,
+            total_ms,
+            scene_version,
+        };
+        PoseResult {
+            visible,
+            candidates: p.candidates,
+            stats,
+            placed: placed.clone(),
+        }
+    });
+    // The answered poses take their places; the planned ones fill the rest in order.
+    let total = planned.len() + answered.len();
+    let mut answered = answered.into_iter().peekable();
+    let mut out = Vec::with_capacity(total);
+    for k in 0..total {
+        let r = match answered.next_if(|(at, _)| *at == k) {
+            Some((_, mut r)) => {
+                r.stats.scene_version = scene_version;
+                r.placed = placed.clone();
+                r
             }
-        })
-        .collect())
+            None => match planned.next() {
+                Some(r) => r,
+                None => break,
+            },
+        };
+        out.push(r);
+    }
+    Ok(out)
 }
 
 #[cfg(test)]

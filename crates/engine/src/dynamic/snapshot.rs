@@ -106,6 +106,7 @@ pub fn advance(base: &PreparedScene, previous: &PreparedScene, changes: &Changes
         copies: previous
             .copies
             .without_moved(n, changes.objects.iter().map(|&(id, _)| id)),
+        edges: std::sync::Arc::clone(&previous.edges),
     }
 }
 

@@ -8,6 +8,7 @@
 //! stable for a given file.
 
 mod demo;
+pub mod edges;
 mod glb_write;
 mod gltf_load;
 pub mod limits;

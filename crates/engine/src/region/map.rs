@@ -1,0 +1,330 @@
+//! The map a region is culled against: the occluders drawn from the region's centre,
+//! with bounds that hold over each whole pixel cell and a mask of the cells where the
+//! first drawn surface may end (see the module above for why these suffice).
+//!
+//! Per cell: `lo`, the least view depth any occluder triangle touching the cell has
+//! inside it; `hi`, a bound on the first drawn surface anywhere in the cell (the
+//! farthest depth of a triangle, or convex pair of them across a shared edge, that
+//! covers the cell whole, or the centre's first depth plus the depth ranges of the
+//! triangles touching the cell, whichever is less); whether any triangle touches it;
+//! and whether a
+//! *leak edge* may show in it: an edge of a drawn triangle that no drawn triangle
+//! facing the same way shares, drawn wherever its depth is not behind `hi`. A box is
+//! hidden when its image's cells lie behind `hi`, and its image dilated by the
+//! region's parallax holds no leak, no untouched cell and nothing nearer than the
+//! depth the dilation was computed for. Counts come from summed-area tables (exact),
+//! depth bounds from min/max pyramids (blocks covering the rect: conservative).
+
+use glam::Vec4Swizzles;
+
+use crate::camera::Camera;
+use crate::cull::PreparedScene;
+use crate::geom::Aabb;
+
+use super::raster::{
+    Cells, DEPTH_SLACK_ABS, DEPTH_SLACK_REL, cover_pair, draw_edge, rasterize, screen_triangle,
+};
+
+/// A drawn map, ready to test boxes.
+pub struct RegionMap {
+    cam: Camera,
+    radius: f32,
+    /// The nearest view depth a blocking point may have (see [`RegionMap::hides`]).
+    min_depth: f32,
+    w: usize,
+    h: usize,
+    /// `lo` and `hi` pyramids, level 0 first (each level half the one before).
+    lo: Vec<Level>,
+    hi: Vec<Level>,
+    /// Summed-area tables of untouched and of leaking cells, `(w + 1) × (h + 1)`.
+    untouched: Vec<u32>,
+    leaks: Vec<u32>,
+    /// Occluder objects and triangles drawn.
+    pub occluders: u32,
+    pub triangles: u32,
+}
+
+/// `a > b`, false where either is not a number.
+fn beyond(a: f32, b: f32) -> bool {
+    a.partial_cmp(&b) == Some(std::cmp::Ordering::Greater)
+}
+
+/// What the box test of [`RegionMap::judge`] found, in the order it looks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Verdict {
+    /// No eye of the ball sees the box.
+    Hidden,
+    /// A corner of the box is not beyond the depth a blocking point needs.
+    Near,
+    /// The box's image, or that image dilated, leaves the map.
+    OffMap,
+    /// The box is not behind the first drawn surface over its image.
+    NotBehind,
+    /// An occluder in the dilated image is too near the ball.
+    NearOccluder,
+    /// A cell of the dilated image holds no occluder.
+    Uncovered,
+    /// A leak edge shows in the dilated image.
+    Leak,
+}
+
+struct Level {
+    w: usize,
+    h: usize,
+    v: Vec<f32>,
+}
+
+impl RegionMap {
+    /// Draws the occluder objects `ids` from `cam` (at the region's centre) for a
+    /// ball of eyes of `radius` whose views see rays up to `off_axis` radians from
+    /// their axes.
+    pub fn draw(
+        prep: &PreparedScene,
+        cam: &Camera,
+        radius: f32,
+        off_axis: f32,
+        ids: &[u32],
+    ) -> Self {
+        let scene = &prep.scene;
+        let (w, h) = (cam.width as usize, cam.height as usize);
+        let mut cells = Cells::new(w * h);
+        let neighbours = prep.edge_neighbours();
+        // Triangles drawn: global triangle index → place in `screen`.
+        let mut drawn: std::collections::HashMap<u32, usize> = std::collections::HashMap::new();
+        let mut screen = Vec::new();
+        let mut triangles = 0u32;
+        for &id in ids {
+            let o = &scene.objects[id as usize];
+            let first = o.first_index / 3;
+            for (k, corners) in scene.corners_of(o).enumerate() {
+                let Some(t) = screen_triangle(cam, corners) else {
+                    continue;
+                };
+                triangles += 1;
+                rasterize(&t, w, h, &mut cells);
+                drawn.insert(first + k as u32, screen.len());
+                screen.push((first + k as u32, t));
+            }
+        }
+        // Pairs across a shared edge that form a convex quad cover cells whole that
+        // neither triangle covers alone (the diagonal of every quad face).
+        let facing = |i: usize| screen[i].1.facing;
+        for (at, (tri, t)) in screen.iter().enumerate() {
+            for e in 0..3 {
+                let Some(&other) = neighbours.of(*tri, e).and_then(|n| drawn.get(&n)) else {
+                    continue;
+                };
+                if other > at && facing(other) == t.facing {
+                    cover_pair(t, e, &screen[other].1, w, h, &mut cells);
+                }
+            }
+        }
+        let (lo, hi, touched) = cells.bounds();
+        // Leak edges, drawn where they are not behind the surface.
+        let mut leak = vec![false; w * h];
+        for (tri, t) in &screen {
+            for e in 0..3 {
+                let shared = neighbours
+                    .of(*tri, e)
+                    .and_then(|n| drawn.get(&n))
+                    .is_some_and(|&i| facing(i) == t.facing);
+                if !shared {
+                    let (a, b) = (e, (e + 1) % 3);
+                    draw_edge(
+                        (t.p[a], t.depth[a]),
+                        (t.p[b], t.depth[b]),
+                        w,
+                        h,
+                        &hi,
+                        &mut leak,
+                    );
+                }
+            }
+        }
+        RegionMap {
+            // z_lo lies beyond the ball, and far enough beyond it that the blocking
+            // point is beyond the near plane of every eye of the ball that looks at
+            // the box.
+            min_depth: radius + cam.near / off_axis.min(85f32.to_radians()).cos() + 1e-3,
+            radius,
+            w,
+            h,
+            lo: pyramid(w, h, lo, f32::min),
+            hi: pyramid(w, h, hi, f32::max),
+            untouched: summed(w, h, touched.iter().map(|&t| !t)),
+            leaks: summed(w, h, leak.iter().copied()),
+            occluders: ids.len() as u32,
+            triangles,
+            cam: cam.clone(),
+        }
+    }
+
+    /// Whether no eye of the ball sees any point of `b`, looking anywhere.
+    pub fn hides(&self, b: &Aabb) -> bool {
+        self.judge(b) == Verdict::Hidden
+    }
+
+    /// Why `b` is hidden or not ([`Verdict`]).
+    pub fn judge(&self, b: &Aabb) -> Verdict {
+        if b.is_empty() {
+            return Verdict::Hidden;
+        }
+        let m = &self.cam.view;
+        let (mut x0, mut x1, mut y0, mut y1) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
+        let mut nearest = f32::INFINITY;
+        for c in b.corners() {
+            let v = (*m * c.extend(1.0)).xyz();
+            let d = -v.z;
+            if !beyond(d, self.min_depth) {
+                return Verdict::Near; // too near the ball, behind it or not a number
+            }
+            let (sx, sy) = self.to_pixels(v.x / d, v.y / d);
+            (x0, x1, y0, y1) = (x0.min(sx), x1.max(sx), y0.min(sy), y1.max(sy));
+            nearest = nearest.min(d);
+        }
+        // The box's own image: every cell it touches, behind the surface.
+        let Some(own) = self.cells(x0, x1, y0, y1, 0.0, 0.0) else {
+            return Verdict::OffMap;
+        };
+        let far = self.query(&self.hi, own, f32::NEG_INFINITY, f32::max);
+        if !beyond(nearest, far * (1.0 + DEPTH_SLACK_REL) + DEPTH_SLACK_ABS) {
+            return Verdict::NotBehind;
+        }
+        // z_lo: a depth that the whole dilated image lies beyond.
+        let mut z_lo = self.query(&self.lo, own, f32::INFINITY, f32::min);
+        for _ in 0..6 {
+            if !beyond(z_lo, self.min_depth) {
+                return Verdict::NearOccluder;
+            }
+            let (kx, ky) = self.dilation(z_lo);
+            let Some(n) = self.cells(x0, x1, y0, y1, kx, ky) else {
+                return Verdict::OffMap; // the dilated image leaves the map
+            };
+            let least = self.query(&self.lo, n, f32::INFINITY, f32::min);
+            if least >= z_lo {
+                return if self.count(&self.untouched, n) != 0 {
+                    Verdict::Uncovered
+                } else if self.count(&self.leaks, n) != 0 {
+                    Verdict::Leak
+                } else {
+                    Verdict::Hidden
+                };
+            }
+            z_lo = least * (1.0 - DEPTH_SLACK_REL) - DEPTH_SLACK_ABS;
+        }
+        Verdict::NearOccluder
+    }
+
+    /// Pixel coordinates of view tangents `(x/d, y/d)`.
+    fn to_pixels(&self, tx: f32, ty: f32) -> (f32, f32) {
+        let (w, h) = (self.w as f32, self.h as f32);
+        (
+            (tx * self.cam.scale[0] * 0.5 + 0.5) * w,
+            (0.5 - ty * self.cam.scale[1] * 0.5) * h,
+        )
+    }
+
+    /// The dilation in pixels `(x, y)` of a box's image that holds every direction of
+    /// a segment from an eye of the ball to the box, past view depth `z_lo`: `r/z_lo`
+    /// times `√(1 + t²)` in tangent units, `t` the largest tangent on the map.
+    fn dilation(&self, z_lo: f32) -> (f32, f32) {
+        let (tx, ty) = (1.0 / self.cam.scale[0], 1.0 / self.cam.scale[1]);
+        let a = self.radius / z_lo;
+        let per_x = self.cam.scale[0] * 0.5 * self.w as f32;
+        let per_y = self.cam.scale[1] * 0.5 * self.h as f32;
+        (
+            a * (1.0 + tx * tx).sqrt() * per_x,
+            a * (1.0 + ty * ty).sqrt() * per_y,
+        )
+    }
+
+    /// The cells `[x0, x1] × [y0, y1]` (inclusive) that the closed pixel rect touches,
+    /// dilated by `(kx, ky)` and one cell more; `None` if that leaves the map.
+    fn cells(&self, x0: f32, x1: f32, y0: f32, y1: f32, kx: f32, ky: f32) -> Option<[usize; 4]> {
+        let lo_x = (x0 - kx).floor() - 1.0;
+        let hi_x = (x1 + kx).floor() + 1.0;
+        let lo_y = (y0 - ky).floor() - 1.0;
+        let hi_y = (y1 + ky).floor() + 1.0;
+        let inside = lo_x >= 0.0
+            && lo_y >= 0.0
+            && hi_x < self.w as f32
+            && hi_y < self.h as f32
+            && (lo_x <= hi_x && lo_y <= hi_y);
+        inside.then_some([lo_x as usize, hi_x as usize, lo_y as usize, hi_y as usize])
+    }
+
+    /// Cells flagged in a summed-area table within `[x0, x1] × [y0, y1]`.
+    fn count(&self, sat: &[u32], [x0, x1, y0, y1]: [usize; 4]) -> u32 {
+        let row = self.w + 1;
+        let at = |x: usize, y: usize| sat[y * row + x];
+        at(x1 + 1, y1 + 1) + at(x0, y0) - at(x0, y1 + 1) - at(x1 + 1, y0)
+    }
+
+    /// The min (or max) of a pyramid over blocks that cover `[x0, x1] × [y0, y1]`: at
+    /// the level where the rect spans at most two blocks a side.
+    fn query(
+        &self,
+        levels: &[Level],
+        [x0, x1, y0, y1]: [usize; 4],
+        init: f32,
+        f: fn(f32, f32) -> f32,
+    ) -> f32 {
+        let span = (x1 - x0 + 1).max(y1 - y0 + 1);
+        let mut k = 0;
+        while k + 1 < levels.len() && (span >> (k + 1)) >= 2 {
+            k += 1;
+        }
+        let l = &levels[k];
+        let mut v = init;
+        for y in (y0 >> k)..=((y1 >> k).min(l.h - 1)) {
+            for x in (x0 >> k)..=((x1 >> k).min(l.w - 1)) {
+                v = f(v, l.v[y * l.w + x]);
+            }
+        }
+        v
+    }
+}
+
+/// Min or max pyramid of a `w × h` grid, level 0 the grid itself.
+fn pyramid(w: usize, h: usize, v: Vec<f32>, f: fn(f32, f32) -> f32) -> Vec<Level> {
+    let mut levels = vec![Level { w, h, v }];
+    while levels.last().is_some_and(|l| l.w > 1 || l.h > 1) {
+        let l = levels.last().unwrap();
+        let (nw, nh) = (l.w.div_ceil(2), l.h.div_ceil(2));
+        let mut next = Vec::with_capacity(nw * nh);
+        for y in 0..nh {
+            for x in 0..nw {
+                let mut m = l.v[(2 * y) * l.w + 2 * x];
+                for (dx, dy) in [(1, 0), (0, 1), (1, 1)] {
+                    let (sx, sy) = (2 * x + dx, 2 * y + dy);
+                    if sx < l.w && sy < l.h {
+                        m = f(m, l.v[sy * l.w + sx]);
+                    }
+                }
+                next.push(m);
+            }
+        }
+        levels.push(Level {
+            w: nw,
+            h: nh,
+            v: next,
+        });
+    }
+    levels
+}
+
+/// Summed-area table of flags over a `w × h` grid: entry `(x, y)` counts the flags in
+/// `[0, x) × [0, y)`.
+fn summed(w: usize, h: usize, flags: impl Iterator<Item = bool>) -> Vec<u32> {
+    let row = w + 1;
+    let mut sat = vec![0u32; row * (h + 1)];
+    let flags: Vec<bool> = flags.collect();
+    for y in 0..h {
+        let mut run = 0u32;
+        for x in 0..w {
+            run += flags[y * w + x] as u32;
+            sat[(y + 1) * row + x + 1] = sat[y * row + x + 1] + run;
+        }
+    }
+    sat
+}

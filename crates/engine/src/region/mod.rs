@@ -1,0 +1,213 @@
+//! Visibility from a region: answers that hold for every eye in a ball (or box) of
+//! eyes and every view direction within a turn of the pose's, at every pixel grid.
+//!
+//! A union of point answers from sampled eyes is not such an answer (it misses what
+//! shows between the samples), and neither is HOM's map with its coverage shrunk and
+//! its depth widened: two walls whose silhouettes meet in the centre's image leave a
+//! slit that an eye beside the centre sees through, though every pixel near it is
+//! covered. The test here is built on one argument instead, from the centre `p` of a
+//! ball of radius `r` ([`map`]):
+//!
+//! Let `D(v)` be the view depth of the first drawn occluder along direction `v` from
+//! `p`. Take an eye `q` (|q − p| ≤ r) and a point `z` of a tested box at view depth
+//! `ζ`, and follow the segment from `q` to `z`: where its view depth has passed
+//! `z_lo`, every point of it lies within `r` of the ray from `p` to `z`, so its
+//! direction stays in the box's image dilated by `r·√(1+t²)/z_lo` in tangent units
+//! (`N`). Suppose, over `N`, that every direction is covered, `D ≥ z_lo > r`, and `D`
+//! is continuous; and that `ζ > D` over the box's own image. Then `g = depth − D`
+//! along the segment goes from `≤ 0` (at depth `z_lo`) to `> 0` (at `z`) without a
+//! jump, so it is `0` somewhere before `z`: the segment meets a drawn occluder
+//! triangle, which the exact oracle at `q` draws too (it is in `q`'s view, in front
+//! of `z`, beyond its near plane). So no eye of the region sees `z`, whatever it
+//! looks at and whatever its pixel grid.
+//!
+//! `D` can only jump where the first drawn surface ends: at an edge of a drawn
+//! triangle that no other drawn triangle facing the same way shares (welded by exact
+//! position, `scene::edges`). Those edges, where the map cannot prove them hidden, are
+//! drawn into a leak mask; `N` must hold none and every cell of it must be touched.
+//! Depth bounds per cell are conservative over the whole cell (not sampled at pixel
+//! centres), so the argument holds between samples too.
+//!
+//! A box region is culled as the ball around its centre that holds it; every
+//! direction (`all_directions`, or a turn too wide for one map) as six maps of a cube,
+//! any one of which may prove a box hidden (hiding does not depend on the direction
+//! looked in). The per-pixel refinement is not adapted to regions: region answers are
+//! the box test's. `exact` takes no region.
+
+pub mod map;
+mod raster;
+#[cfg(test)]
+mod tests;
+
+use std::time::Instant;
+
+use glam::{Mat4, Vec3};
+use homcull_proto::CullStats;
+
+pub use crate::camera::Region;
+use crate::camera::{Camera, look_at_rh};
+use crate::cull::{CullSettings, Passes, PoseResult, PreparedScene, select_occluders};
+pub use map::{RegionMap, Verdict};
+
+/// Widest half-angle (degrees) of one planar map; wider views use the cube's six.
+const MAX_MAP_HALF_DEG: f32 = 60.0;
+/// Margin around the view in each map, degrees: room for the dilation at its border.
+const MAP_MARGIN_DEG: f32 = 3.0;
+/// Longest side of one map in pixels.
+const MAX_MAP_SIDE: u32 = 4096;
+
+/// The answer for `cam`'s region: every candidate (an object in the frustum of some
+/// eye of the region, looking some way it allows) that no map proves hidden. Methods
+/// without an occlusion pass answer the candidates; `s` must not ask for `exact`.
+pub fn cull(prep: &PreparedScene, cam: &Camera, region: &Region, s: &CullSettings) -> PoseResult {
+    let started = Instant::now();
+    let scene = &prep.scene;
+    let (candidates, union) = candidates(prep, cam, region);
+    let occludes = matches!(s.passes(), Some(Passes::Occlusion { .. }));
+    let (visible, occluders_used, occluder_triangles) = if occludes {
+        // The largest angle between an eye's axis and a ray it sees.
+        let (tx, ty) = half_tangents(cam);
+        let off_axis = tx.hypot(ty).atan() + region.turn;
+        let maps: Vec<RegionMap> = map_cameras(cam, region)
+            .iter()
+            .map(|m| {
+                let chosen = select_occluders(prep, m, s, &[]);
+                RegionMap::draw(prep, m, region.radius, off_axis, &chosen.ids)
+            })
+            .collect();
+        // A box outside every eye's frustum shows nothing; any map may prove one hidden.
+        let in_view = |b: &crate::geom::Aabb| union.as_ref().is_none_or(|u| u.intersects(b));
+        let hidden = |id: u32| {
+            scene
+                .boxes_of(id)
+                .iter()
+                .all(|b| !in_view(&b.aabb) || maps.iter().any(|m| m.hides(&b.aabb)))
+        };
+        let visible: Vec<u32> = candidates
+            .iter()
+            .copied()
+            .filter(|&id| !hidden(id))
+            .collect();
+        let used = maps.iter().map(|m| m.occluders).max().unwrap_or(0);
+        let tris = maps.iter().map(|m| m.triangles).max().unwrap_or(0);
+        (visible, used, tris)
+    } else {
+        (candidates.clone(), 0, 0)
+    };
+    let objects = scene.objects.len() as u32;
+    let ms = started.elapsed().as_secs_f64() * 1e3;
+    PoseResult {
+        stats: CullStats {
+            objects,
+            candidates: candidates.len() as u32,
+            culled_by_frustum: objects - candidates.len() as u32,
+            culled_by_occlusion: (candidates.len() - visible.len()) as u32,
+            occluders_used,
+            occluder_triangles,
+            gpu_ms: ms,
+            total_ms: ms,
+            scene_version: 0,
+        },
+        visible,
+        candidates,
+        placed: None,
+    }
+}
+
+/// Tangents of the camera's half-angles: `(horizontal, vertical)`, the horizontal one
+/// taking an off-axis shift's wider side.
+fn half_tangents(cam: &Camera) -> (f32, f32) {
+    ((1.0 + cam.shift.abs()) / cam.scale[0], 1.0 / cam.scale[1])
+}
+
+/// The camera's forward and up directions in world space.
+fn axes(cam: &Camera) -> (Vec3, Vec3) {
+    (cam.forward(), cam.view.row(1).truncate().normalize())
+}
+
+/// Objects that some eye of the region may have in view, ascending, and the frustum
+/// that holds every eye's where there is one: a square pyramid whose half-angle is the
+/// pose's half-diagonal plus the turn, its apex set back so that each side plane
+/// clears the ball. Without one (every direction, or a turn too wide), the objects
+/// within the far distance of the ball.
+fn candidates(prep: &PreparedScene, cam: &Camera, region: &Region) -> (Vec<u32>, Option<Camera>) {
+    let (tx, ty) = half_tangents(cam);
+    let half = (tx.hypot(ty)).atan() + region.turn;
+    let reach = cam.far + region.radius;
+    let ids = prep.scene.objects.iter().map(|o| o.id);
+    if region.all_directions || half >= 80f32.to_radians() {
+        let near_ball = |id: &u32| {
+            let b = &prep.scene.objects[*id as usize].aabb;
+            !b.is_empty() && b.min.max(b.max.min(region.centre)).distance(region.centre) <= reach
+        };
+        return (ids.filter(near_ball).collect(), None);
+    }
+    let (forward, up) = axes(cam);
+    let back = region.radius / half.sin();
+    let apex = region.centre - forward * back;
+    let union = Camera::from_view(
+        apex,
+        look_at_rh(apex, apex + forward, up),
+        2.0 * half.to_degrees(),
+        1,
+        1,
+        1e-3,
+        reach + back,
+    );
+    let mut found = Vec::new();
+    prep.bvh.frustum_query(&union, |i| found.push(i));
+    found.sort_unstable();
+    (found, Some(union))
+}
+
+/// Pixels of the maps a region camera draws: the work a request asks for.
+pub fn pixels(cam: &Camera) -> u64 {
+    match &cam.region {
+        Some(r) => map_cameras(cam, r)
+            .iter()
+            .map(|m| m.width as u64 * m.height as u64)
+            .sum(),
+        None => cam.width as u64 * cam.height as u64,
+    }
+}
+
+/// The cameras of the maps drawn from the region's centre: one with the pose's view
+/// widened by the turn and a margin, at the pose's pixel size, or the six faces of a
+/// cube (each 120° wide, so that boxes near a face's border fit in one of them).
+pub fn map_cameras(cam: &Camera, region: &Region) -> Vec<Camera> {
+    let (tx, ty) = half_tangents(cam);
+    // The pose's pixel size in tangent units at the centre of its view.
+    let pixel = 2.0 * ty / cam.height as f32;
+    let widen = region.turn + MAP_MARGIN_DEG.to_radians();
+    let (hx, hy) = (tx.atan() + widen, ty.atan() + widen);
+    let limit = MAX_MAP_HALF_DEG.to_radians();
+    let centre = region.centre;
+    let sized = |half: f32| ((2.0 * half.tan() / pixel).ceil() as u32).clamp(1, MAX_MAP_SIDE);
+    let camera = |view: Mat4, hx: f32, hy: f32| {
+        Camera::from_view(
+            centre,
+            view,
+            2.0 * hy.to_degrees(),
+            sized(hx),
+            sized(hy),
+            cam.near,
+            cam.far,
+        )
+    };
+    if !region.all_directions && hx <= limit && hy <= limit {
+        let (forward, up) = axes(cam);
+        return vec![camera(look_at_rh(centre, centre + forward, up), hx, hy)];
+    }
+    let faces = [
+        (Vec3::X, Vec3::Y),
+        (Vec3::NEG_X, Vec3::Y),
+        (Vec3::Y, Vec3::Z),
+        (Vec3::NEG_Y, Vec3::Z),
+        (Vec3::Z, Vec3::Y),
+        (Vec3::NEG_Z, Vec3::Y),
+    ];
+    faces
+        .iter()
+        .map(|&(f, up)| camera(look_at_rh(centre, centre + f, up), limit, limit))
+        .collect()
+}

@@ -1,0 +1,243 @@
+//! Visibility from a region (`Pose::region`, `core::region`) against the exact oracle
+//! at eyes sampled in the region: nothing any of them sees may be missing.
+//!
+//! On the demo city and every shared scene, street-level poses with balls of radius
+//! 0.1–2 m and turns of 0–30°, 64 eyes each (the centre, points of the ball's surface
+//! and interior) looking along directions across the cone (its axis and its rim);
+//! and box regions of every direction on the demo city. The oracle is the native
+//! backend's exact ID buffer at each eye, its own pixel grid.
+
+use crate::common;
+
+use glam::{Quat, Vec3};
+use homcull::core::camera::Camera;
+use homcull::core::cull::{Culler, PreparedScene};
+use homcull::core::native::NativeBackend;
+use homcull::core::occluders::OccluderParams;
+use homcull::core::region;
+use homcull::core::sampler::PoseSampler;
+use homcull_proto::{DebVariant, Method, Pose, Region};
+
+const RADII: [f32; 4] = [0.1, 0.5, 1.0, 2.0];
+const TURNS: [f32; 3] = [0.0, 10.0, 30.0];
+const EYES: usize = 64;
+
+/// A small deterministic generator (xorshift), so that failures replay.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// A point of the unit ball: on its surface when `surface`.
+    fn in_ball(&mut self, surface: bool) -> Vec3 {
+        loop {
+            let v = Vec3::new(self.next(), self.next(), self.next()) * 2.0 - 1.0;
+            let l = v.length();
+            if l > 1e-3 && l <= 1.0 {
+                return if surface { v / l } else { v };
+            }
+        }
+    }
+}
+
+/// `n` eyes of the ball around `centre`: the centre, then points of its surface and
+/// of its interior, alternately.
+fn eyes_in_ball(rng: &mut Rng, centre: Vec3, radius: f32, n: usize) -> Vec<Vec3> {
+    (0..n)
+        .map(|k| match k {
+            0 => centre,
+            _ => centre + rng.in_ball(k % 2 == 1) * radius,
+        })
+        .collect()
+}
+
+/// A pose at `eye` looking along `forward` turned by up to `turn` radians (every
+/// fourth on the cone's rim), with the pose's field of view and viewport.
+fn eye_pose(rng: &mut Rng, pose: &Pose, eye: Vec3, forward: Vec3, turn: f32, k: usize) -> Pose {
+    let side = forward.cross(Vec3::Y).normalize_or(Vec3::X);
+    let axis = Quat::from_axis_angle(forward, rng.next() * std::f32::consts::TAU) * side;
+    let angle = if k % 4 == 3 { turn } else { turn * rng.next() };
+    let dir = Quat::from_axis_angle(axis, angle) * forward;
+    Pose {
+        position: eye.to_array(),
+        rotation: None,
+        look_at: Some((eye + dir).to_array()),
+        up: Some([0.0, 1.0, 0.0]),
+        region: None,
+        stereo: None,
+        ..pose.clone()
+    }
+}
+
+/// Region answers for `n` sampled poses of `prep`: returns the objects missing
+/// (seen by an eye's oracle, not in the answer), and the kept and seen triangles.
+fn check(name: &str, prep: &PreparedScene, n: usize, seed: u64) -> (usize, u64, u64) {
+    let hom = common::scenes::settings(prep, Method::Hom, DebVariant::Raster, false);
+    let exact = common::scenes::settings(prep, Method::Exact, DebVariant::Raster, false);
+    let sampled = PoseSampler::new(&prep.scene).sample(n, seed, [480, 270], &|_| true);
+    let mut rng = Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
+    let tris = |ids: &[u32]| -> u64 {
+        ids.iter()
+            .map(|&id| prep.scene.objects[id as usize].triangles() as u64)
+            .sum()
+    };
+    let (mut missing, mut kept, mut seen) = (0, 0u64, 0u64);
+    for (i, pose) in sampled.poses.iter().enumerate() {
+        let (radius, turn) = (RADII[i % RADII.len()], TURNS[i % TURNS.len()]);
+        let centre = Vec3::from(pose.position);
+        let forward = Camera::new(pose).unwrap().forward();
+        let asked = Pose {
+            region: Some(Region {
+                radius_m: Some(radius),
+                turn_deg: Some(turn),
+                ..Region::default()
+            }),
+            ..pose.clone()
+        };
+        let cam = Camera::new(&asked).unwrap();
+        let answer = region::cull(prep, &cam, cam.region.as_ref().unwrap(), &hom);
+        let eyes: Vec<Camera> = eyes_in_ball(&mut rng, centre, radius, EYES)
+            .into_iter()
+            .enumerate()
+            .map(|(k, e)| {
+                let p = eye_pose(&mut rng, pose, e, forward, turn.to_radians(), k);
+                Camera::new(&p).unwrap()
+            })
+            .collect();
+        let mut union = Vec::new();
+        for oracle in NativeBackend.cull(prep, &eyes, &exact).unwrap() {
+            union = homcull::core::cull::union(&union, &oracle.visible);
+        }
+        let lost: Vec<u32> = union
+            .iter()
+            .copied()
+            .filter(|id| answer.visible.binary_search(id).is_err())
+            .collect();
+        assert!(
+            lost.is_empty(),
+            "{name}: pose {i} {asked:?}: eyes of the region see {lost:?}, not in the answer"
+        );
+        missing += lost.len();
+        kept += tris(&answer.visible);
+        seen += tris(&union);
+    }
+    eprintln!(
+        "{name}: {n} regions × {EYES} eyes, {missing} missing, kept ÷ seen triangles {:.3}",
+        kept as f64 / seen.max(1) as f64
+    );
+    (missing, kept, seen)
+}
+
+#[test]
+fn nothing_an_eye_of_the_region_sees_is_culled() {
+    for (name, scene) in common::scenes::demo_and_shared() {
+        let prep = PreparedScene::new(scene, OccluderParams::default());
+        let (missing, kept, seen) = check(&name, &prep, 12, 3);
+        assert_eq!(missing, 0, "{name}");
+        assert!(kept >= seen, "{name}: the answer holds what the eyes see");
+    }
+}
+
+#[test]
+fn a_region_answer_culls_what_walls_hide_on_the_demo_street() {
+    let (_, scene) = common::scenes::demo_and_shared()
+        .into_iter()
+        .find(|(n, _)| n == "demo")
+        .expect("the demo city");
+    let prep = PreparedScene::new(scene, OccluderParams::default());
+    let objects = prep.scene.objects.len();
+    let pose = Pose::looking_at([0.0, 1.7, 0.0], [40.0, 1.7, 0.0]);
+    let asked = Pose {
+        region: Some(Region {
+            radius_m: Some(0.5),
+            turn_deg: Some(10.0),
+            ..Region::default()
+        }),
+        viewport: [480, 270],
+        ..pose
+    };
+    let cam = Camera::new(&asked).unwrap();
+    let hom = common::scenes::settings(&prep, Method::Hom, DebVariant::Raster, false);
+    let r = region::cull(&prep, &cam, cam.region.as_ref().unwrap(), &hom);
+    eprintln!(
+        "demo street, r = 0.5 m, 10°: {} of {} candidates kept ({} objects)",
+        r.visible.len(),
+        r.candidates.len(),
+        objects
+    );
+    assert!(
+        r.visible.len() * 2 < r.candidates.len(),
+        "a region answer on the street keeps {} of {} candidates",
+        r.visible.len(),
+        r.candidates.len()
+    );
+}
+
+#[test]
+fn a_box_of_eyes_looking_every_way_sees_nothing_outside_its_answer() {
+    let (_, scene) = common::scenes::demo_and_shared()
+        .into_iter()
+        .find(|(n, _)| n == "demo")
+        .expect("the demo city");
+    let prep = PreparedScene::new(scene, OccluderParams::default());
+    let hom = common::scenes::settings(&prep, Method::Hom, DebVariant::Raster, false);
+    let exact = common::scenes::settings(&prep, Method::Exact, DebVariant::Raster, false);
+    let sampled = PoseSampler::new(&prep.scene).sample(2, 11, [320, 180], &|_| true);
+    let mut rng = Rng(7);
+    let directions = [Vec3::X, Vec3::NEG_X, Vec3::Z, Vec3::NEG_Z];
+    for pose in &sampled.poses {
+        let c = Vec3::from(pose.position);
+        let half = Vec3::new(0.3, 0.2, 0.3);
+        let (lo, hi) = (c - half, c + half);
+        let asked = Pose {
+            region: Some(Region {
+                bounds: Some([lo.to_array(), hi.to_array()]),
+                all_directions: true,
+                ..Region::default()
+            }),
+            ..pose.clone()
+        };
+        let cam = Camera::new(&asked).unwrap();
+        let answer = region::cull(&prep, &cam, cam.region.as_ref().unwrap(), &hom);
+        let eyes: Vec<Camera> = (0..16)
+            .flat_map(|k| {
+                let e = match k {
+                    0 => c,
+                    1 => lo,
+                    2 => hi,
+                    _ => lo + (hi - lo) * Vec3::new(rng.next(), rng.next(), rng.next()),
+                };
+                directions.map(|d| {
+                    let p = Pose {
+                        position: e.to_array(),
+                        rotation: None,
+                        look_at: Some((e + d).to_array()),
+                        up: Some([0.0, 1.0, 0.0]),
+                        region: None,
+                        ..pose.clone()
+                    };
+                    Camera::new(&p).unwrap()
+                })
+            })
+            .collect();
+        for oracle in NativeBackend.cull(&prep, &eyes, &exact).unwrap() {
+            let lost: Vec<_> = oracle
+                .visible
+                .iter()
+                .filter(|id| answer.visible.binary_search(id).is_err())
+                .collect();
+            assert!(lost.is_empty(), "box {lo}..{hi}: an eye sees {lost:?}");
+        }
+        eprintln!(
+            "box {lo}..{hi}, every direction: {} of {} objects kept",
+            answer.visible.len(),
+            prep.scene.objects.len()
+        );
+        assert!(answer.visible.len() < prep.scene.objects.len());
+    }
+}
