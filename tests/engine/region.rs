@@ -16,6 +16,7 @@ use homcull::core::native::NativeBackend;
 use homcull::core::occluders::OccluderParams;
 use homcull::core::region;
 use homcull::core::sampler::PoseSampler;
+use homcull::core::scene::demo_city;
 use homcull_proto::{DebVariant, Method, Pose, Region};
 
 const RADII: [f32; 4] = [0.1, 0.5, 1.0, 2.0];
@@ -133,6 +134,10 @@ fn check(name: &str, prep: &PreparedScene, n: usize, seed: u64) -> (usize, u64, 
     (missing, kept, seen)
 }
 
+fn demo() -> PreparedScene {
+    PreparedScene::new(demo_city(), OccluderParams::default())
+}
+
 #[test]
 fn nothing_an_eye_of_the_region_sees_is_culled() {
     for (name, scene) in common::scenes::demo_and_shared() {
@@ -145,11 +150,7 @@ fn nothing_an_eye_of_the_region_sees_is_culled() {
 
 #[test]
 fn a_region_answer_culls_what_walls_hide_on_the_demo_street() {
-    let (_, scene) = common::scenes::demo_and_shared()
-        .into_iter()
-        .find(|(n, _)| n == "demo")
-        .expect("the demo city");
-    let prep = PreparedScene::new(scene, OccluderParams::default());
+    let prep = demo();
     let objects = prep.scene.objects.len();
     let pose = Pose::looking_at([0.0, 1.7, 0.0], [40.0, 1.7, 0.0]);
     let asked = Pose {
@@ -180,11 +181,7 @@ fn a_region_answer_culls_what_walls_hide_on_the_demo_street() {
 
 #[test]
 fn a_box_of_eyes_looking_every_way_sees_nothing_outside_its_answer() {
-    let (_, scene) = common::scenes::demo_and_shared()
-        .into_iter()
-        .find(|(n, _)| n == "demo")
-        .expect("the demo city");
-    let prep = PreparedScene::new(scene, OccluderParams::default());
+    let prep = demo();
     let hom = common::scenes::settings(&prep, Method::Hom, DebVariant::Raster, false);
     let exact = common::scenes::settings(&prep, Method::Exact, DebVariant::Raster, false);
     let sampled = PoseSampler::new(&prep.scene).sample(2, 11, [320, 180], &|_| true);
