@@ -87,7 +87,7 @@ fn check(name: &str, prep: &PreparedScene, n: usize, seed: u64) -> (usize, u64, 
             .map(|&id| prep.scene.objects[id as usize].triangles() as u64)
             .sum()
     };
-    let (mut missing, mut kept, mut seen) = (0, 0u64, 0u64);
+    let (mut missing, mut kept, mut seen, mut ms) = (0, 0u64, 0u64, 0.0);
     for (i, pose) in sampled.poses.iter().enumerate() {
         let (radius, turn) = (RADII[i % RADII.len()], TURNS[i % TURNS.len()]);
         let centre = Vec3::from(pose.position);
@@ -102,6 +102,7 @@ fn check(name: &str, prep: &PreparedScene, n: usize, seed: u64) -> (usize, u64, 
         };
         let cam = Camera::new(&asked).unwrap();
         let answer = region::cull(prep, &cam, cam.region.as_ref().unwrap(), &hom);
+        ms += answer.stats.total_ms;
         let eyes: Vec<Camera> = eyes_in_ball(&mut rng, centre, radius, EYES)
             .into_iter()
             .enumerate()
@@ -128,8 +129,10 @@ fn check(name: &str, prep: &PreparedScene, n: usize, seed: u64) -> (usize, u64, 
         seen += tris(&union);
     }
     eprintln!(
-        "{name}: {n} regions × {EYES} eyes, {missing} missing, kept ÷ seen triangles {:.3}",
-        kept as f64 / seen.max(1) as f64
+        "{name}: {n} regions × {EYES} eyes, {missing} missing, kept ÷ seen triangles {:.3}, \
+         {:.1} ms per region",
+        kept as f64 / seen.max(1) as f64,
+        ms / n as f64
     );
     (missing, kept, seen)
 }

@@ -411,3 +411,35 @@ async fn a_pose_with_a_region_answers_for_the_region() {
     }
     srv.stop().await;
 }
+
+/// Region poses count their maps' pixels, weighted, against a request's work budget:
+/// a batch of many every-direction regions is refused before any work.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn region_poses_count_their_maps_against_the_work_budget() {
+    let srv = TestServer::start(|_| {}).await;
+    let http = reqwest::Client::new();
+    let pose = street_walk(1, [960, 540]).remove(0);
+    let mut p = serde_json::to_value(&pose).unwrap();
+    let c = pose.position;
+    p["region"] = json!({"box": [[c[0] - 0.5, c[1] - 0.5, c[2] - 0.5], [c[0] + 0.5, c[1] + 0.5, c[2] + 0.5]], "all_directions": true});
+    let poses: Vec<Value> = (0..4).map(|_| p.clone()).collect();
+    let r = http
+        .post(srv.url("/v1/scenes/demo/cull/batch"))
+        .json(&json!({"poses": poses}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 413);
+    let body: homcull_proto::ErrorBody = r.json().await.unwrap();
+    assert_eq!(body.error.code, "work_too_large");
+    // The same poses without their regions are well within it.
+    let points: Vec<_> = (0..4).map(|_| pose.clone()).collect();
+    let ok: BatchResponse = post_json(
+        &http,
+        srv.url("/v1/scenes/demo/cull/batch"),
+        &json!({"poses": points}),
+    )
+    .await;
+    assert_eq!(ok.results.len(), 4);
+    srv.stop().await;
+}

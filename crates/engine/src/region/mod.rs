@@ -160,12 +160,21 @@ fn candidates(prep: &PreparedScene, cam: &Camera, region: &Region) -> (Vec<u32>,
     (found, Some(union))
 }
 
-/// Pixels of the maps a region camera draws: the work a request asks for.
+/// What a region map's pixel counts for beside a point pose's in a request's work
+/// budget. A region map is drawn with whole-cell bounds, edges and summed-area tables
+/// in scalar code, tens of times a point pixel's time on the native backend (a street
+/// region at 480×270: 120–360 ms, against under a millisecond for the point pose);
+/// 16 keeps one every-direction region at 960×540 within the default budget.
+pub const WORK_PER_MAP_PIXEL: u64 = 16;
+
+/// The work a camera asks for, in point-pose pixels: its viewport, or for a region
+/// camera the pixels of its maps times [`WORK_PER_MAP_PIXEL`]. What a request's work
+/// budget counts, so that region poses cannot hold the cull worker for long.
 pub fn pixels(cam: &Camera) -> u64 {
     match &cam.region {
         Some(r) => map_cameras(cam, r)
             .iter()
-            .map(|m| m.width as u64 * m.height as u64)
+            .map(|m| m.width as u64 * m.height as u64 * WORK_PER_MAP_PIXEL)
             .sum(),
         None => cam.width as u64 * cam.height as u64,
     }
