@@ -47,3 +47,29 @@ async fn stereo_poses_stream_what_rest_answers() {
     }
     srv.stop().await;
 }
+
+/// A JSON pose with a region is refused on a stream (an `invalid_pose` error frame
+/// that names the region), and the stream keeps answering the poses after it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stream_refuses_a_region_and_keeps_serving() {
+    use homcull_proto::frame::{ErrorCode, Frame};
+
+    let srv = TestServer::start(|_| {}).await;
+    let mut ws = connect(&srv, "").await;
+    let pose = street_walk(1, [320, 180]).remove(0);
+    let mut with_region = serde_json::to_value(&pose).unwrap();
+    with_region["region"] = json!({"radius_m": 0.5});
+    let text = json!({"seq": 1, "pose": with_region, "full": false}).to_string();
+    ws.send(Message::Text(text.into())).await.unwrap();
+    match next_frame(&mut ws).await {
+        Frame::Error(e) => {
+            assert_eq!((e.ack, e.code), (1, ErrorCode::InvalidPose));
+            assert!(e.message.contains("region"), "{}", e.message);
+        }
+        f => panic!("expected an error frame, got {f:?}"),
+    }
+    ws.send(pose_frame(2, &pose, false)).await.unwrap();
+    let mut t = Tracker::default();
+    assert_eq!(t.apply(&next_frame(&mut ws).await), 2);
+    srv.stop().await;
+}

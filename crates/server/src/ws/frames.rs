@@ -113,6 +113,18 @@ pub(super) fn parse_frame(decoded: Result<Frame, FrameError>) -> Result<Pending,
 pub(super) fn parse_text(text: &str) -> Result<Pending, ErrorFrame> {
     let m: PoseMessage = serde_json::from_str(text)
         .map_err(|e| bad(ErrorCode::MalformedFrame, format!("pose message: {e}")))?;
+    // A region answer costs the cull worker far more than a point pose, and a stream
+    // sends a pose a frame: regions are asked over REST, where the work budget
+    // weighs them, until the stream answers a region once for many poses.
+    if m.pose.region.is_some() {
+        return Err(ErrorFrame {
+            ack: m.seq,
+            ..bad(
+                ErrorCode::InvalidPose,
+                "region: streams take no region yet; ask POST …/cull for one".into(),
+            )
+        });
+    }
     let eyes = stereo::eyes(&m.pose).map_err(|e| ErrorFrame {
         ack: m.seq,
         ..bad(ErrorCode::InvalidPose, e.to_string())
