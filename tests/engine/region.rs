@@ -88,6 +88,7 @@ fn check(name: &str, prep: &PreparedScene, n: usize, seed: u64) -> (usize, u64, 
             .sum()
     };
     let (mut missing, mut kept, mut seen, mut ms) = (0, 0u64, 0u64, 0.0);
+    let mut unseen = std::collections::BTreeMap::new();
     for (i, pose) in sampled.poses.iter().enumerate() {
         let (radius, turn) = (RADII[i % RADII.len()], TURNS[i % TURNS.len()]);
         let centre = Vec3::from(pose.position);
@@ -125,12 +126,35 @@ fn check(name: &str, prep: &PreparedScene, n: usize, seed: u64) -> (usize, u64, 
             "{name}: pose {i} {asked:?}: eyes of the region see {lost:?}, not in the answer"
         );
         missing += lost.len();
+        // Why the answer keeps what no eye saw, by triangles.
+        for (id, why) in region::explain(prep, &cam, cam.region.as_ref().unwrap(), &hom) {
+            if let Some(v) = why {
+                if union.binary_search(&id).is_err() {
+                    *unseen.entry(format!("{v:?}")).or_insert(0u64) += tris(&[id]);
+                }
+            }
+        }
+        if let Some(dir) = std::env::var_os("HOMCULL_REGION_IMAGES") {
+            let leaky: Vec<_> = region::explain(prep, &cam, cam.region.as_ref().unwrap(), &hom)
+                .into_iter()
+                .filter(|(id, why)| {
+                    *why == Some(region::Verdict::Leak) && union.binary_search(id).is_err()
+                })
+                .map(|(id, _)| prep.scene.objects[id as usize].aabb)
+                .collect();
+            let maps = region::draw_maps(prep, &cam, cam.region.as_ref().unwrap(), &hom);
+            let (w, h, rgb) = maps[0].debug_rgb(&leaky);
+            let mut ppm = format!("P6 {w} {h} 255\n").into_bytes();
+            ppm.extend(rgb);
+            let file = std::path::Path::new(&dir).join(format!("{name}_{i}.ppm"));
+            std::fs::write(file, ppm).unwrap();
+        }
         kept += tris(&answer.visible);
         seen += tris(&union);
     }
     eprintln!(
         "{name}: {n} regions × {EYES} eyes, {missing} missing, kept ÷ seen triangles {:.3}, \
-         {:.1} ms per region",
+         {:.1} ms per region; kept and unseen triangles by why they were kept: {unseen:?}",
         kept as f64 / seen.max(1) as f64,
         ms / n as f64
     );

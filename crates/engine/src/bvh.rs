@@ -83,6 +83,35 @@ impl BoxBvh {
         })
     }
 
+    /// Calls `f` with the index of every box that intersects `query` (closed boxes:
+    /// touching counts).
+    pub fn box_query(&self, query: &Aabb, mut f: impl FnMut(u32)) {
+        let nodes = &self.bvh.nodes;
+        if nodes.is_empty() {
+            return;
+        }
+        let meets = |b: &Aabb| b.min.cmple(query.max).all() && query.min.cmple(b.max).all();
+        let mut stack = vec![0u32];
+        while let Some(i) = stack.pop() {
+            let node = &nodes[i as usize];
+            let b = node.aabb();
+            if !meets(&Aabb::new(b.min.into(), b.max.into())) {
+                continue;
+            }
+            if node.is_leaf() {
+                for slot in node.first_index..node.first_index + node.prim_count {
+                    let item = self.items[self.bvh.primitive_indices[slot as usize] as usize];
+                    if meets(&self.boxes[item as usize]) {
+                        f(item);
+                    }
+                }
+            } else {
+                stack.push(node.first_index);
+                stack.push(node.first_index + 1);
+            }
+        }
+    }
+
     /// Calls `f` with the index of every box that intersects the camera's frustum
     /// (conservatively: see [`Camera::intersects`]).
     pub fn frustum_query(&self, cam: &Camera, mut f: impl FnMut(u32)) {

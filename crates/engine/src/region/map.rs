@@ -20,10 +20,16 @@ use glam::Vec4Swizzles;
 use crate::camera::Camera;
 use crate::cull::PreparedScene;
 use crate::geom::Aabb;
+use crate::scene::edges::{Hold, held};
 
+use super::clip::{Piece, Source, pieces};
 use super::raster::{
-    Cells, DEPTH_SLACK_ABS, DEPTH_SLACK_REL, cover_pair, draw_edge, rasterize, screen_triangle,
+    Cells, DEPTH_SLACK_ABS, DEPTH_SLACK_REL, ScreenTriangle, cover_pair, draw_edge, project,
+    rasterize,
 };
+
+/// No piece: a triangle not drawn.
+const NONE: u32 = u32::MAX;
 
 /// A drawn map, ready to test boxes.
 pub struct RegionMap {
@@ -50,7 +56,7 @@ fn beyond(a: f32, b: f32) -> bool {
 }
 
 /// What the box test of [`RegionMap::judge`] found, in the order it looks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Verdict {
     /// No eye of the ball sees the box.
     Hidden,
@@ -87,65 +93,103 @@ impl RegionMap {
     ) -> Self {
         let scene = &prep.scene;
         let (w, h) = (cam.width as usize, cam.height as usize);
+        // z_lo lies beyond the ball, and far enough beyond it that the blocking point
+        // is beyond the near plane of every eye of the ball that looks at the box.
+        let min_depth = radius + cam.near / off_axis.min(85f32.to_radians()).cos() + 1e-3;
         let mut cells = Cells::new(w * h);
         let neighbours = prep.edge_neighbours();
-        // Triangles drawn: global triangle index → place in `screen`.
-        let mut drawn: std::collections::HashMap<u32, usize> = std::collections::HashMap::new();
-        let mut screen = Vec::new();
+        // The drawn pieces, and for each drawn triangle (global index) its first
+        // piece (`NONE`: not drawn).
+        let mut drawn = vec![NONE; scene.indices.len() / 3];
+        let mut screen: Vec<Piece> = Vec::new();
         let mut triangles = 0u32;
+        let clip = 0.5 * (cam.near + min_depth);
         for &id in ids {
             let o = &scene.objects[id as usize];
             let first = o.first_index / 3;
             for (k, corners) in scene.corners_of(o).enumerate() {
-                let Some(t) = screen_triangle(cam, corners) else {
+                let tri = first + k as u32;
+                let parts = pieces(cam, tri, corners, clip);
+                if parts.is_empty() {
                     continue;
-                };
+                }
                 triangles += 1;
-                rasterize(&t, w, h, &mut cells);
-                drawn.insert(first + k as u32, screen.len());
-                screen.push((first + k as u32, t));
-            }
-        }
-        // Pairs across a shared edge that form a convex quad cover cells whole that
-        // neither triangle covers alone (the diagonal of every quad face).
-        let facing = |i: usize| screen[i].1.facing;
-        for (at, (tri, t)) in screen.iter().enumerate() {
-            for e in 0..3 {
-                let Some(&other) = neighbours.of(*tri, e).and_then(|n| drawn.get(&n)) else {
-                    continue;
-                };
-                if other > at && facing(other) == t.facing {
-                    cover_pair(t, e, &screen[other].1, w, h, &mut cells);
+                drawn[tri as usize] = screen.len() as u32;
+                for part in parts {
+                    rasterize(&part.t, w, h, &mut cells);
+                    screen.push(part);
                 }
             }
         }
+        let piece = |tri: u32| -> Option<&Piece> {
+            let &i = drawn.get(tri as usize)?;
+            (i != NONE).then(|| &screen[i as usize])
+        };
+        // Pairs across a shared edge that form a convex quad cover cells whole that
+        // neither triangle covers alone (the diagonal of every quad face); likewise
+        // the two halves of a clipped quad.
+        for (at, p) in screen.iter().enumerate() {
+            if p.whole {
+                for e in 0..3 {
+                    let Some(n) = neighbours.of(p.tri, e).and_then(piece) else {
+                        continue;
+                    };
+                    if n.whole && n.tri > p.tri && n.t.facing == p.t.facing {
+                        cover_pair(&p.t, e, &n.t, w, h, &mut cells);
+                    }
+                }
+            } else if let Some(n) = screen.get(at + 1).filter(|n| n.tri == p.tri) {
+                cover_pair(&p.t, 2, &n.t, w, h, &mut cells);
+            }
+        }
         let (lo, hi, touched) = cells.bounds();
-        // Leak edges, drawn where they are not behind the surface.
+        // Leak edges: the parts of edges where the first drawn surface may end (no
+        // neighbour, no drawn triangle holding them), drawn where they are not behind
+        // the surface. Cuts need none (see `clip`).
         let mut leak = vec![false; w * h];
-        for (tri, t) in &screen {
-            for e in 0..3 {
+        for p in &screen {
+            let corners = scene.triangle(p.tri);
+            for (k, source) in p.edges.iter().enumerate() {
+                let Source::Edge { e, t0, t1 } = *source else {
+                    continue;
+                };
                 let shared = neighbours
-                    .of(*tri, e)
-                    .and_then(|n| drawn.get(&n))
-                    .is_some_and(|&i| facing(i) == t.facing);
-                if !shared {
-                    let (a, b) = (e, (e + 1) % 3);
-                    draw_edge(
-                        (t.p[a], t.depth[a]),
-                        (t.p[b], t.depth[b]),
-                        w,
-                        h,
-                        &hi,
-                        &mut leak,
-                    );
+                    .of(p.tri, e)
+                    .and_then(piece)
+                    .is_some_and(|n| n.t.facing == p.t.facing);
+                if shared {
+                    continue;
+                }
+                let (a, b) = (corners[e], corners[(e + 1) % 3]);
+                let held_parts: Vec<(f32, f32)> = neighbours
+                    .holders(p.tri, e)
+                    .iter()
+                    .filter_map(|&s| {
+                        let other = piece(s)?;
+                        let (h0, h1, how) = held(a, b, scene.triangle(s))?;
+                        let holds = match how {
+                            Hold::Inside => true,
+                            Hold::Along(_) => opposite_sides(&p.t, k, &other.t),
+                        };
+                        holds.then_some((h0, h1))
+                    })
+                    .collect();
+                for (s0, s1) in open_parts(t0, t1, held_parts) {
+                    let ends = (project(cam, a.lerp(b, s0)), project(cam, a.lerp(b, s1)));
+                    let (pa, pb) = match ends {
+                        (Some(pa), Some(pb)) => (pa, pb),
+                        // Not expected on a drawn piece's edge: then all of that.
+                        _ => (
+                            (p.t.p[k], p.t.depth[k]),
+                            (p.t.p[(k + 1) % 3], p.t.depth[(k + 1) % 3]),
+                        ),
+                    };
+                    draw_edge(pa, pb, w, h, &hi, &mut leak);
                 }
             }
         }
         RegionMap {
-            // z_lo lies beyond the ball, and far enough beyond it that the blocking
-            // point is beyond the near plane of every eye of the ball that looks at
-            // the box.
-            min_depth: radius + cam.near / off_axis.min(85f32.to_radians()).cos() + 1e-3,
+            min_depth,
             radius,
             w,
             h,
@@ -157,6 +201,53 @@ impl RegionMap {
             triangles,
             cam: cam.clone(),
         }
+    }
+
+    /// The map as an RGB image (`w`, `h`, pixels), for diagnostics: leak cells red,
+    /// untouched dark blue, cells without a bound on the surface yellow, the rest
+    /// grey by `hi` (white near, black at 200 m and beyond); the images of `boxes`
+    /// outlined in green.
+    pub fn debug_rgb(&self, boxes: &[Aabb]) -> (usize, usize, Vec<u8>) {
+        let (w, h) = (self.w, self.h);
+        let mut rgb = vec![0u8; w * h * 3];
+        for y in 0..h {
+            for x in 0..w {
+                let hi = self.hi[0].v[y * w + x];
+                let g = (255.0 * (1.0 - (hi / 200.0).min(1.0))) as u8;
+                let px = if self.count(&self.leaks, [x, x, y, y]) != 0 {
+                    [255, 0, 0]
+                } else if self.count(&self.untouched, [x, x, y, y]) != 0 {
+                    [0, 0, 80]
+                } else if !hi.is_finite() {
+                    [255, 255, 0]
+                } else {
+                    [g, g, g]
+                };
+                rgb[(y * w + x) * 3..][..3].copy_from_slice(&px);
+            }
+        }
+        for b in boxes {
+            let m = &self.cam.view;
+            let (mut x0, mut x1, mut y0, mut y1) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
+            for c in b.corners() {
+                let v = (*m * c.extend(1.0)).xyz();
+                let (sx, sy) = self.to_pixels(v.x / -v.z, v.y / -v.z);
+                (x0, x1, y0, y1) = (x0.min(sx), x1.max(sx), y0.min(sy), y1.max(sy));
+            }
+            let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1);
+            let (x0, x1, y0, y1) = (clamp(x0, w), clamp(x1, w), clamp(y0, h), clamp(y1, h));
+            for x in x0..=x1 {
+                for y in [y0, y1] {
+                    rgb[(y * w + x) * 3..][..3].copy_from_slice(&[0, 200, 0]);
+                }
+            }
+            for y in y0..=y1 {
+                for x in [x0, x1] {
+                    rgb[(y * w + x) * 3..][..3].copy_from_slice(&[0, 200, 0]);
+                }
+            }
+        }
+        (w, h, rgb)
     }
 
     /// Whether no eye of the ball sees any point of `b`, looking anywhere.
@@ -283,6 +374,46 @@ impl RegionMap {
         }
         v
     }
+}
+
+/// Whether piece `n`, which has an edge along edge `k` of piece `t`, lies on the other
+/// side of that edge from `t` on the map: then the two meet there like the halves of
+/// one surface. Each side is told by the corner farthest from the edge's line; false
+/// where either is too thin to tell.
+fn opposite_sides(t: &ScreenTriangle, k: usize, n: &ScreenTriangle) -> bool {
+    let (a, b) = (t.p[k], t.p[(k + 1) % 3]);
+    let side = |q: [f32; 2]| (b[0] - a[0]) * (q[1] - a[1]) - (b[1] - a[1]) * (q[0] - a[0]);
+    let farthest = |s: &ScreenTriangle| {
+        s.p.iter()
+            .map(|&q| side(q))
+            .max_by(|x, y| x.abs().total_cmp(&y.abs()))
+            .unwrap_or(0.0)
+    };
+    let length2 = (b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2);
+    let (st, sn) = (farthest(t), farthest(n));
+    let thin = 1e-6 * length2;
+    (st > thin && sn < -thin) || (st < -thin && sn > thin)
+}
+
+/// The parts of `[t0, t1]` outside every interval of `held`, in order.
+fn open_parts(t0: f32, t1: f32, mut held: Vec<(f32, f32)>) -> Vec<(f32, f32)> {
+    held.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+    let mut open = Vec::new();
+    let mut at = t0;
+    for (h0, h1) in held {
+        if h0 > at {
+            open.push((at, h0.min(t1)));
+        }
+        at = at.max(h1);
+        if at >= t1 {
+            break;
+        }
+    }
+    if at < t1 {
+        open.push((at, t1));
+    }
+    open.retain(|(a, b)| b > a);
+    open
 }
 
 /// Min or max pyramid of a `w × h` grid, level 0 the grid itself.

@@ -23,7 +23,9 @@
 //!
 //! `D` can only jump where the first drawn surface ends: at an edge of a drawn
 //! triangle that no other drawn triangle facing the same way shares (welded by exact
-//! position, `scene::edges`). Those edges, where the map cannot prove them hidden, are
+//! position, `scene::edges`) and no other drawn triangle holds (the edge lies on it,
+//! crossing its inside or along its edge on the other side: there the surface goes on
+//! without a jump). Those edges, where the map cannot prove them hidden, are
 //! drawn into a leak mask; `N` must hold none and every cell of it must be touched.
 //! Depth bounds per cell are conservative over the whole cell (not sampled at pixel
 //! centres), so the argument holds between samples too.
@@ -34,6 +36,7 @@
 //! looked in). The per-pixel refinement is not adapted to regions: region answers are
 //! the box test's. `exact` takes no region.
 
+mod clip;
 pub mod map;
 mod raster;
 #[cfg(test)]
@@ -65,28 +68,11 @@ pub fn cull(prep: &PreparedScene, cam: &Camera, region: &Region, s: &CullSetting
     let (candidates, union) = candidates(prep, cam, region);
     let occludes = matches!(s.passes(), Some(Passes::Occlusion { .. }));
     let (visible, occluders_used, occluder_triangles) = if occludes {
-        // The largest angle between an eye's axis and a ray it sees.
-        let (tx, ty) = half_tangents(cam);
-        let off_axis = tx.hypot(ty).atan() + region.turn;
-        let maps: Vec<RegionMap> = map_cameras(cam, region)
-            .iter()
-            .map(|m| {
-                let chosen = select_occluders(prep, m, s, &[]);
-                RegionMap::draw(prep, m, region.radius, off_axis, &chosen.ids)
-            })
-            .collect();
-        // A box outside every eye's frustum shows nothing; any map may prove one hidden.
-        let in_view = |b: &crate::geom::Aabb| union.as_ref().is_none_or(|u| u.intersects(b));
-        let hidden = |id: u32| {
-            scene
-                .boxes_of(id)
-                .iter()
-                .all(|b| !in_view(&b.aabb) || maps.iter().any(|m| m.hides(&b.aabb)))
-        };
+        let maps = draw_maps(prep, cam, region, s);
         let visible: Vec<u32> = candidates
             .iter()
             .copied()
-            .filter(|&id| !hidden(id))
+            .filter(|&id| why_kept(prep, &maps, union.as_ref(), id).is_some())
             .collect();
         let used = maps.iter().map(|m| m.occluders).max().unwrap_or(0);
         let tris = maps.iter().map(|m| m.triangles).max().unwrap_or(0);
@@ -112,6 +98,68 @@ pub fn cull(prep: &PreparedScene, cam: &Camera, region: &Region, s: &CullSetting
         candidates,
         placed: None,
     }
+}
+
+/// Each candidate of `cam`'s region with why the maps keep it (`None`: they hide
+/// it), for diagnostics: what a tighter map would have to change. `s` must ask for
+/// an occlusion pass.
+pub fn explain(
+    prep: &PreparedScene,
+    cam: &Camera,
+    region: &Region,
+    s: &CullSettings,
+) -> Vec<(u32, Option<Verdict>)> {
+    let (candidates, union) = candidates(prep, cam, region);
+    let maps = draw_maps(prep, cam, region, s);
+    candidates
+        .into_iter()
+        .map(|id| (id, why_kept(prep, &maps, union.as_ref(), id)))
+        .collect()
+}
+
+/// The maps of the region, each with the occluders chosen for it.
+pub fn draw_maps(
+    prep: &PreparedScene,
+    cam: &Camera,
+    region: &Region,
+    s: &CullSettings,
+) -> Vec<RegionMap> {
+    // The largest angle between an eye's axis and a ray it sees.
+    let (tx, ty) = half_tangents(cam);
+    let off_axis = tx.hypot(ty).atan() + region.turn;
+    map_cameras(cam, region)
+        .iter()
+        .map(|m| {
+            let chosen = select_occluders(prep, m, s, &[]);
+            RegionMap::draw(prep, m, region.radius, off_axis, &chosen.ids)
+        })
+        .collect()
+}
+
+/// Why object `id` is kept: the furthest verdict any map gives its first box that no
+/// map hides; `None` when every box in view is hidden by some map. A box outside
+/// every eye's frustum (`union`) shows nothing.
+fn why_kept(
+    prep: &PreparedScene,
+    maps: &[RegionMap],
+    union: Option<&Camera>,
+    id: u32,
+) -> Option<Verdict> {
+    prep.scene
+        .boxes_of(id)
+        .iter()
+        .filter(|b| union.is_none_or(|u| u.intersects(&b.aabb)))
+        .find_map(|b| {
+            let verdicts = maps.iter().map(|m| m.judge(&b.aabb));
+            let mut furthest = None;
+            for v in verdicts {
+                if v == Verdict::Hidden {
+                    return None;
+                }
+                furthest = furthest.max(Some(v));
+            }
+            Some(furthest.unwrap_or(Verdict::Near))
+        })
 }
 
 /// Tangents of the camera's half-angles: `(horizontal, vertical)`, the horizontal one

@@ -20,27 +20,30 @@ pub(super) struct ScreenTriangle {
     pub(super) facing: bool,
 }
 
+/// Point `c` in `cam`'s pixels, with its view depth; `None` at or before the near
+/// plane, beyond the far one, or off any finite pixel.
+pub(super) fn project(cam: &Camera, c: Vec3) -> Option<([f32; 2], f32)> {
+    let (w, h) = (cam.width as f32, cam.height as f32);
+    let v = (cam.view * c.extend(1.0)).xyz();
+    let d = -v.z;
+    if !(d > cam.near && d <= cam.far) {
+        return None;
+    }
+    let p = [
+        (v.x * cam.scale[0] / d * 0.5 + 0.5) * w,
+        (0.5 - v.y * cam.scale[1] / d * 0.5) * h,
+    ];
+    p.iter().all(|x| x.is_finite()).then_some((p, d))
+}
+
 /// `corners` as seen from `cam`, or `None` when the triangle is not drawn: a corner
 /// at or before the near plane (it would need clipping, and a clipped triangle's new
 /// edges are no edges of the scene) or no area on screen.
 pub(super) fn screen_triangle(cam: &Camera, corners: [Vec3; 3]) -> Option<ScreenTriangle> {
-    let (w, h) = (cam.width as f32, cam.height as f32);
     let mut p = [[0.0f32; 2]; 3];
     let mut depth = [0.0f32; 3];
     for (i, c) in corners.iter().enumerate() {
-        let v = (cam.view * c.extend(1.0)).xyz();
-        let d = -v.z;
-        if !(d > cam.near && d <= cam.far) {
-            return None;
-        }
-        p[i] = [
-            (v.x * cam.scale[0] / d * 0.5 + 0.5) * w,
-            (0.5 - v.y * cam.scale[1] / d * 0.5) * h,
-        ];
-        depth[i] = d;
-    }
-    if !p.iter().flatten().all(|x| x.is_finite()) {
-        return None;
+        (p[i], depth[i]) = project(cam, *c)?;
     }
     // 1/depth is affine in screen space: solve a·x + b·y + c = 1/d at the corners (f64).
     let [[x0, y0], [x1, y1], [x2, y2]] = p.map(|q| q.map(f64::from));
@@ -64,8 +67,10 @@ pub(super) fn screen_triangle(cam: &Camera, corners: [Vec3; 3]) -> Option<Screen
 pub(super) struct Cells {
     /// The least depth any of them has in the cell.
     lo: Vec<f32>,
-    /// The first drawn depth at the cell's centre (∞: none covers it for sure).
-    centre: Vec<f32>,
+    /// A bound on the first drawn depth at some point of the cell: the least of the
+    /// depth at the cell's centre of the triangles that cover it, and the greatest
+    /// depth in the cell of the triangles that surely meet it (∞: none for sure).
+    anchor: Vec<f32>,
     /// The sum over them of the depth range each has in the cell.
     spread: Vec<f32>,
     /// The least, over triangles (or convex pairs of them) that cover the whole cell,
@@ -78,7 +83,7 @@ impl Cells {
     pub(super) fn new(n: usize) -> Self {
         Cells {
             lo: vec![f32::INFINITY; n],
-            centre: vec![f32::INFINITY; n],
+            anchor: vec![f32::INFINITY; n],
             spread: vec![0.0; n],
             cover: vec![f32::INFINITY; n],
             touched: vec![false; n],
@@ -86,16 +91,16 @@ impl Cells {
     }
 
     /// `(lo, hi, touched)` per cell. `hi` bounds the first drawn surface anywhere in
-    /// a cell where that surface is continuous: from the centre to any point of the
-    /// cell a straight path crosses each triangle once, and each changes the depth by
-    /// at most its range in the cell, so the surface stays within the centre's depth
-    /// plus the sum of the ranges. (Where it is not continuous a leak edge shows in
-    /// the cell, and the box test refuses such cells anyway.)
+    /// a cell where that surface is continuous: from the anchor's point to any point
+    /// of the cell a straight path crosses each triangle once, and each changes the
+    /// depth by at most its range in the cell, so the surface stays within the
+    /// anchor's depth plus the sum of the ranges. (Where it is not continuous a leak
+    /// edge shows in the cell, and the box test refuses such cells anyway.)
     /// A surface that covers the whole cell bounds it too: the least such bound is
     /// taken.
     pub(super) fn bounds(self) -> (Vec<f32>, Vec<f32>, Vec<bool>) {
         let hi = self
-            .centre
+            .anchor
             .iter()
             .zip(&self.spread)
             .zip(&self.cover)
@@ -110,7 +115,8 @@ impl Cells {
 /// Folds the triangle into the cells it touches (exact separating-axis test of the
 /// triangle against each cell's closed square): its least depth and its depth range
 /// inside the cell, bounded by its corners' depths and by its plane at the cell's
-/// corners, and its depth at the cell's centre where it covers that.
+/// corners, and a bound on the first surface somewhere in the cell where it
+/// covers the cell's centre or surely meets the cell.
 pub(super) fn rasterize(t: &ScreenTriangle, w: usize, h: usize, cells: &mut Cells) {
     let xs = t.p.map(|q| q[0]);
     let ys = t.p.map(|q| q[1]);
@@ -196,8 +202,24 @@ pub(super) fn rasterize(t: &ScreenTriangle, w: usize, h: usize, cells: &mut Cell
                 let iz = pa * f64::from(mx) + pb * f64::from(my) + pc;
                 if iz > 0.0 {
                     let d = ((1.0 / iz) as f32).clamp(dmin, dmax);
-                    cells.centre[i] = cells.centre[i].min(d);
+                    cells.anchor[i] = cells.anchor[i].min(d);
                 }
+            }
+            // A triangle that surely meets the cell (no axis separates them even by a
+            // margin) bounds the first surface at some point of it by its far depth:
+            // what holds a cell whose centre lies on a seam of two triangles.
+            let m = 1e-3;
+            let meets = min(xs) < x1 - m
+                && max(xs) > x0 + m
+                && min(ys) < y1 - m
+                && max(ys) > y0 + m
+                && edges.iter().all(|&[nx, ny, k]| {
+                    let x = if nx >= 0.0 { x1 } else { x0 };
+                    let y = if ny >= 0.0 { y1 } else { y0 };
+                    nx * x + ny * y + k > m * (nx.abs() + ny.abs())
+                });
+            if meets {
+                cells.anchor[i] = cells.anchor[i].min(far);
             }
         }
     }

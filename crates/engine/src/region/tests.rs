@@ -168,3 +168,34 @@ fn bad_regions_are_refused_naming_the_field() {
         }
     }
 }
+
+#[test]
+fn walls_of_two_objects_that_meet_edge_to_edge_hide_what_is_behind_their_seam() {
+    // Two coplanar walls, separate objects: neither edge at x = 0 has a neighbour in
+    // its own mesh, but each lies along the other wall's edge, so the surface is whole.
+    let mut b = SceneBuilder::default();
+    wall(&mut b, "left", 10.0, [-20.0, 0.0], [-10.0, 10.0]);
+    wall(&mut b, "right", 10.0, [0.0, 20.0], [-10.0, 10.0]);
+    let behind = cube(&mut b, "behind the seam", Vec3::new(0.0, 0.0, -30.0), 0.5);
+    let visible = answer(b.build("two walls, one plane"), 0.5);
+    assert!(!visible.contains(&behind), "visible: {visible:?}");
+}
+
+#[test]
+fn a_wall_standing_on_the_ground_hides_what_is_behind_its_foot() {
+    // The wall's foot lies inside the ground's triangles (crossing their diagonal),
+    // which run past the eye: only their part beyond the clip depth is drawn.
+    let mut b = SceneBuilder::default();
+    let y = -1.7;
+    wall(&mut b, "wall", 10.0, [-20.0, 20.0], [y, 10.0]);
+    let ground = [
+        Vec3::new(-40.0, y, 5.0),
+        Vec3::new(40.0, y, 5.0),
+        Vec3::new(40.0, y, -40.0),
+        Vec3::new(-40.0, y, -40.0),
+    ];
+    b.push("ground".into(), &ground, &[0, 2, 1, 0, 3, 2], None);
+    let low = cube(&mut b, "low, behind", Vec3::new(0.0, y + 0.3, -12.0), 0.5);
+    let visible = answer(b.build("wall on the ground"), 0.5);
+    assert!(!visible.contains(&low), "visible: {visible:?}");
+}

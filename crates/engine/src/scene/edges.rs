@@ -8,12 +8,29 @@
 //! surface may end, which only ever makes it cull less. Neighbours are found once per
 //! scene, for the objects that may occlude, and hold for every later version of it: a
 //! moved object moves its corners by one matrix, so corners that were equal stay equal.
+//!
+//! An edge with no neighbour may still lie on another surface: the side wall of the
+//! next building along a street, the ground under a facade's foot, a T-junction. Such
+//! *holders* are found once per scene too (triangles of any occluder that the edge
+//! lies on within [`HOLD_TOLERANCE_M`]), as candidates only: whether a candidate holds
+//! the edge, and which part of it, is decided again from the current corners each time
+//! ([`held`]), so that objects moved apart stop holding each other's edges.
 
 use std::collections::HashMap;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::Scene;
+use crate::bvh::BoxBvh;
+use crate::geom::Aabb;
+
+/// How far (metres) an edge may lie off a triangle's plane, and outside its edges, and
+/// still count as lying on it: f32 rounding of corners a few hundred metres from the
+/// origin, and no more.
+pub const HOLD_TOLERANCE_M: f32 = 1e-4;
+/// Most holder candidates kept per edge (more only ever makes the map cull less).
+const MAX_HOLDERS: usize = 16;
 
 /// No neighbour across an edge.
 const NONE: u32 = u32::MAX;
@@ -29,6 +46,62 @@ pub struct EdgeNeighbours {
     /// Three entries per triangle of the scene (`NONE` where there is none, and for
     /// every triangle of an object that was not indexed).
     across: Vec<u32>,
+    /// Holder candidates of the edges with no neighbour: slot `tri * 3 + e` owns
+    /// `holders[holder_start[slot] .. holder_start[slot + 1]]` (global triangle
+    /// indices).
+    holder_start: Vec<u32>,
+    holders: Vec<u32>,
+}
+
+/// How a triangle holds part of an edge ([`held`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Hold {
+    /// The part crosses the triangle's inside: the triangle lies on both sides of it.
+    Inside,
+    /// The part lies along the triangle's edge `k` (from corner `k` to `k + 1`): the
+    /// triangle lies on one side of it only.
+    Along(usize),
+}
+
+/// The part `[t0, t1]` of the edge from `a` to `b` (`a + t·(b − a)`) that lies on
+/// triangle `s` within [`HOLD_TOLERANCE_M`], and how; `None` where none does (or `s`
+/// has no area).
+pub fn held(a: Vec3, b: Vec3, s: [Vec3; 3]) -> Option<(f32, f32, Hold)> {
+    let n = (s[1] - s[0]).cross(s[2] - s[0]);
+    let area = n.length();
+    if area.is_nan() || area <= 1e-12 {
+        return None;
+    }
+    let n = n / area;
+    let tol = HOLD_TOLERANCE_M;
+    if n.dot(a - s[0]).abs() > tol || n.dot(b - s[0]).abs() > tol {
+        return None;
+    }
+    let (mut t0, mut t1) = (0.0f32, 1.0f32);
+    let mut along = None;
+    for k in 0..3 {
+        let (p, q) = (s[k], s[(k + 1) % 3]);
+        // In the plane, perpendicular to edge k, towards the inside.
+        let inward = n.cross(q - p).normalize_or_zero();
+        let (fa, fb) = (inward.dot(a - p), inward.dot(b - p));
+        if fa.abs() <= tol && fb.abs() <= tol {
+            along = Some(k);
+            continue;
+        }
+        // fa + t·(fb − fa) ≥ −tol
+        let (ga, gb) = (fa + tol, fb + tol);
+        if ga < 0.0 && gb < 0.0 {
+            return None;
+        }
+        if ga < 0.0 {
+            t0 = t0.max(ga / (ga - gb));
+        } else if gb < 0.0 {
+            t1 = t1.min(ga / (ga - gb));
+        }
+    }
+    // A part no longer than the tolerance holds nothing worth telling.
+    let long = (t1 - t0) * (b - a).length() > 2.0 * tol;
+    long.then(|| (t0, t1, along.map_or(Hold::Inside, Hold::Along)))
 }
 
 impl EdgeNeighbours {
@@ -64,7 +137,22 @@ impl EdgeNeighbours {
                 }
             }
         }
-        EdgeNeighbours { across }
+        let (holder_start, holders) = find_holders(scene, objects, &across);
+        EdgeNeighbours {
+            across,
+            holder_start,
+            holders,
+        }
+    }
+
+    /// Triangles that may hold edge `e` of triangle `tri` ([`held`] says whether and
+    /// where they do now); empty where the edge has a neighbour.
+    pub fn holders(&self, tri: u32, e: usize) -> &[u32] {
+        let slot = tri as usize * 3 + e;
+        match (self.holder_start.get(slot), self.holder_start.get(slot + 1)) {
+            (Some(&a), Some(&b)) => &self.holders[a as usize..b as usize],
+            _ => &[],
+        }
     }
 
     /// The triangle across edge `e` of triangle `tri`, if exactly one shares it.
@@ -72,4 +160,57 @@ impl EdgeNeighbours {
         let n = *self.across.get(tri as usize * 3 + e)?;
         (n != NONE).then_some(n)
     }
+}
+
+/// The holder candidates of every edge of `objects`' triangles that `across` gives no
+/// neighbour, as `(start per slot, candidates)`: triangles of `objects` whose box meets
+/// the edge's and that hold part of it as the scene is now.
+fn find_holders(scene: &Scene, objects: &[u32], across: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let corners = |tri: u32| scene.triangle(tri);
+    let grow = Vec3::splat(HOLD_TOLERANCE_M);
+    let tris: Vec<u32> = objects
+        .iter()
+        .flat_map(|&id| {
+            let o = &scene.objects[id as usize];
+            let first = o.first_index / 3;
+            first..first + o.index_count / 3
+        })
+        .collect();
+    let boxes: Vec<Aabb> = tris
+        .iter()
+        .map(|&t| {
+            let b = Aabb::from_points(&corners(t));
+            Aabb::new(b.min - grow, b.max + grow)
+        })
+        .collect();
+    let bvh = BoxBvh::new(&boxes);
+    let mut found: Vec<(u32, Vec<u32>)> = tris
+        .par_iter()
+        .flat_map_iter(|&tri| (0..3).map(move |e| (tri, e)))
+        .filter(|&(tri, e)| across[tri as usize * 3 + e] == NONE)
+        .map(|(tri, e)| {
+            let c = corners(tri);
+            let (a, b) = (c[e], c[(e + 1) % 3]);
+            let mut hits = Vec::new();
+            bvh.box_query(&Aabb::from_points(&[a, b]), |k| {
+                let s = tris[k as usize];
+                if s != tri && hits.len() < MAX_HOLDERS && held(a, b, corners(s)).is_some() {
+                    hits.push(s);
+                }
+            });
+            hits.sort_unstable();
+            (tri * 3 + e as u32, hits)
+        })
+        .filter(|(_, hits)| !hits.is_empty())
+        .collect();
+    found.sort_unstable_by_key(|&(slot, _)| slot);
+    let mut start = vec![0u32; across.len() + 1];
+    for (slot, hits) in &found {
+        start[*slot as usize + 1] = hits.len() as u32;
+    }
+    for i in 1..start.len() {
+        start[i] += start[i - 1];
+    }
+    let holders = found.into_iter().flat_map(|(_, h)| h).collect();
+    (start, holders)
 }

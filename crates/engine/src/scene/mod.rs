@@ -135,6 +135,14 @@ impl Scene {
             })
     }
 
+    /// The corners of triangle `tri` (a global index: `indices[3 · tri ..]`).
+    pub fn triangle(&self, tri: u32) -> [Vec3; 3] {
+        let i = tri as usize * 3;
+        let t = &self.indices[i..i + 3];
+        let p = &self.positions;
+        [p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]]
+    }
+
     pub fn triangle_count(&self) -> u64 {
         self.indices.len() as u64 / 3
     }
