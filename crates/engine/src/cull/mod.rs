@@ -20,6 +20,7 @@
 pub mod copies;
 pub mod deb;
 pub mod error;
+pub mod holders;
 pub mod mask;
 pub mod method;
 mod methods;

@@ -57,8 +57,12 @@ impl PreparedScene {
 
     /// See [`PreparedScene::edges`].
     pub fn edge_neighbours(&self) -> &EdgeNeighbours {
-        self.edges
-            .get_or_init(|| EdgeNeighbours::build(&self.scene, &self.occluders.ids))
+        self.edges.get_or_init(|| {
+            let ids = &self.occluders.ids;
+            let edges = EdgeNeighbours::build(&self.scene, ids);
+            let found = super::holders::find(&self.scene, ids, &edges);
+            edges.with_holders(found)
+        })
     }
 
     /// Whether object `id`'s test boxes bound a motion: only the box test judges it.

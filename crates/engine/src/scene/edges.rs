@@ -11,26 +11,22 @@
 //!
 //! An edge with no neighbour may still lie on another surface: the side wall of the
 //! next building along a street, the ground under a facade's foot, a T-junction. Such
-//! *holders* are found once per scene too (triangles of any occluder that the edge
+//! *holders* are found once per scene too (`cull::holders`: triangles of any occluder that the edge
 //! lies on within [`HOLD_TOLERANCE_M`]), as candidates only: whether a candidate holds
 //! the edge, and which part of it, is decided again from the current corners each time
 //! ([`held`]), so that objects moved apart stop holding each other's edges.
 
 use std::collections::HashMap;
 
-use glam::Vec3;
-use rayon::prelude::*;
-
 use super::Scene;
-use crate::bvh::BoxBvh;
-use crate::geom::Aabb;
+use glam::Vec3;
 
 /// How far (metres) an edge may lie off a triangle's plane, and outside its edges, and
 /// still count as lying on it: f32 rounding of corners a few hundred metres from the
 /// origin, and no more.
 pub const HOLD_TOLERANCE_M: f32 = 1e-4;
 /// Most holder candidates kept per edge (more only ever makes the map cull less).
-const MAX_HOLDERS: usize = 16;
+pub const MAX_HOLDERS: usize = 16;
 
 /// No neighbour across an edge.
 const NONE: u32 = u32::MAX;
@@ -137,11 +133,32 @@ impl EdgeNeighbours {
                 }
             }
         }
-        let (holder_start, holders) = find_holders(scene, objects, &across);
         EdgeNeighbours {
             across,
-            holder_start,
-            holders,
+            holder_start: Vec::new(),
+            holders: Vec::new(),
+        }
+    }
+
+    /// Whether edge `e` of triangle `tri` has no neighbour.
+    pub fn is_open(&self, tri: u32, e: usize) -> bool {
+        self.across.get(tri as usize * 3 + e) == Some(&NONE)
+    }
+
+    /// The same neighbours with the holder candidates of each open edge, by slot
+    /// (`tri * 3 + e`), ascending: what `cull::holders` finds.
+    pub fn with_holders(self, found: Vec<(u32, Vec<u32>)>) -> Self {
+        let mut start = vec![0u32; self.across.len() + 1];
+        for (slot, hits) in &found {
+            start[*slot as usize + 1] = hits.len() as u32;
+        }
+        for i in 1..start.len() {
+            start[i] += start[i - 1];
+        }
+        EdgeNeighbours {
+            across: self.across,
+            holder_start: start,
+            holders: found.into_iter().flat_map(|(_, h)| h).collect(),
         }
     }
 
@@ -160,57 +177,4 @@ impl EdgeNeighbours {
         let n = *self.across.get(tri as usize * 3 + e)?;
         (n != NONE).then_some(n)
     }
-}
-
-/// The holder candidates of every edge of `objects`' triangles that `across` gives no
-/// neighbour, as `(start per slot, candidates)`: triangles of `objects` whose box meets
-/// the edge's and that hold part of it as the scene is now.
-fn find_holders(scene: &Scene, objects: &[u32], across: &[u32]) -> (Vec<u32>, Vec<u32>) {
-    let corners = |tri: u32| scene.triangle(tri);
-    let grow = Vec3::splat(HOLD_TOLERANCE_M);
-    let tris: Vec<u32> = objects
-        .iter()
-        .flat_map(|&id| {
-            let o = &scene.objects[id as usize];
-            let first = o.first_index / 3;
-            first..first + o.index_count / 3
-        })
-        .collect();
-    let boxes: Vec<Aabb> = tris
-        .iter()
-        .map(|&t| {
-            let b = Aabb::from_points(&corners(t));
-            Aabb::new(b.min - grow, b.max + grow)
-        })
-        .collect();
-    let bvh = BoxBvh::new(&boxes);
-    let mut found: Vec<(u32, Vec<u32>)> = tris
-        .par_iter()
-        .flat_map_iter(|&tri| (0..3).map(move |e| (tri, e)))
-        .filter(|&(tri, e)| across[tri as usize * 3 + e] == NONE)
-        .map(|(tri, e)| {
-            let c = corners(tri);
-            let (a, b) = (c[e], c[(e + 1) % 3]);
-            let mut hits = Vec::new();
-            bvh.box_query(&Aabb::from_points(&[a, b]), |k| {
-                let s = tris[k as usize];
-                if s != tri && hits.len() < MAX_HOLDERS && held(a, b, corners(s)).is_some() {
-                    hits.push(s);
-                }
-            });
-            hits.sort_unstable();
-            (tri * 3 + e as u32, hits)
-        })
-        .filter(|(_, hits)| !hits.is_empty())
-        .collect();
-    found.sort_unstable_by_key(|&(slot, _)| slot);
-    let mut start = vec![0u32; across.len() + 1];
-    for (slot, hits) in &found {
-        start[*slot as usize + 1] = hits.len() as u32;
-    }
-    for i in 1..start.len() {
-        start[i] += start[i - 1];
-    }
-    let holders = found.into_iter().flat_map(|(_, h)| h).collect();
-    (start, holders)
 }
