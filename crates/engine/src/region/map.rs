@@ -250,11 +250,6 @@ impl RegionMap {
         (w, h, rgb)
     }
 
-    /// Whether no eye of the ball sees any point of `b`, looking anywhere.
-    pub fn hides(&self, b: &Aabb) -> bool {
-        self.judge(b) == Verdict::Hidden
-    }
-
     /// Why `b` is hidden or not ([`Verdict`]).
     pub fn judge(&self, b: &Aabb) -> Verdict {
         if b.is_empty() {

@@ -65,20 +65,21 @@ const MAX_MAP_SIDE: u32 = 4096;
 pub fn cull(prep: &PreparedScene, cam: &Camera, region: &Region, s: &CullSettings) -> PoseResult {
     let started = Instant::now();
     let scene = &prep.scene;
-    let (candidates, union) = candidates(prep, cam, region);
     let occludes = matches!(s.passes(), Some(Passes::Occlusion { .. }));
-    let (visible, occluders_used, occluder_triangles) = if occludes {
-        let maps = draw_maps(prep, cam, region, s);
-        let visible: Vec<u32> = candidates
+    let (candidates, visible, occluders_used, occluder_triangles) = if occludes {
+        let (judged, maps) = judge(prep, cam, region, s);
+        let candidates = judged.iter().map(|&(id, _)| id).collect();
+        let visible = judged
             .iter()
-            .copied()
-            .filter(|&id| why_kept(prep, &maps, union.as_ref(), id).is_some())
+            .filter(|(_, v)| v.is_some())
+            .map(|&(id, _)| id)
             .collect();
         let used = maps.iter().map(|m| m.occluders).max().unwrap_or(0);
         let tris = maps.iter().map(|m| m.triangles).max().unwrap_or(0);
-        (visible, used, tris)
+        (candidates, visible, used, tris)
     } else {
-        (candidates.clone(), 0, 0)
+        let (candidates, _) = candidates(prep, cam, region);
+        (candidates.clone(), candidates, 0, 0)
     };
     let objects = scene.objects.len() as u32;
     let ms = started.elapsed().as_secs_f64() * 1e3;
@@ -109,15 +110,28 @@ pub fn explain(
     region: &Region,
     s: &CullSettings,
 ) -> Vec<(u32, Option<Verdict>)> {
-    let (candidates, union) = candidates(prep, cam, region);
-    let maps = draw_maps(prep, cam, region, s);
-    candidates
-        .into_iter()
-        .map(|id| (id, why_kept(prep, &maps, union.as_ref(), id)))
-        .collect()
+    judge(prep, cam, region, s).0
 }
 
-/// The maps of the region, each with the occluders chosen for it.
+/// Every candidate with its verdict, and the maps that gave them: what [`cull`] and
+/// [`explain`] share, so that the diagnostic explains the answer served.
+fn judge(
+    prep: &PreparedScene,
+    cam: &Camera,
+    region: &Region,
+    s: &CullSettings,
+) -> (Vec<(u32, Option<Verdict>)>, Vec<RegionMap>) {
+    let (candidates, union) = candidates(prep, cam, region);
+    let maps = draw_maps(prep, cam, region, s);
+    let judged = candidates
+        .into_iter()
+        .map(|id| (id, why_kept(prep, &maps, union.as_ref(), id)))
+        .collect();
+    (judged, maps)
+}
+
+/// The maps of the region, each with the occluders chosen for it (public for the
+/// region test's images of them).
 pub fn draw_maps(
     prep: &PreparedScene,
     cam: &Camera,
