@@ -24,8 +24,8 @@ use crate::scene::edges::{Hold, held};
 
 use super::clip::{Piece, Source, pieces};
 use super::raster::{
-    Cells, DEPTH_SLACK_ABS, DEPTH_SLACK_REL, ScreenTriangle, cover_pair, draw_edge, project,
-    rasterize,
+    Cells, DEPTH_SLACK_ABS, DEPTH_SLACK_REL, ScreenTriangle, cover_pair, cover_triangle, draw_edge,
+    project, rasterize,
 };
 
 /// No piece: a triangle not drawn.
@@ -96,7 +96,6 @@ impl RegionMap {
         // z_lo lies beyond the ball, and far enough beyond it that the blocking point
         // is beyond the near plane of every eye of the ball that looks at the box.
         let min_depth = radius + cam.near / off_axis.min(85f32.to_radians()).cos() + 1e-3;
-        let mut cells = Cells::new(w * h);
         let neighbours = prep.edge_neighbours();
         // The drawn pieces, and for each drawn triangle (global index) its first
         // piece (`NONE`: not drawn).
@@ -115,32 +114,62 @@ impl RegionMap {
                 }
                 triangles += 1;
                 drawn[tri as usize] = screen.len() as u32;
-                for part in parts {
-                    rasterize(&part.t, w, h, &mut cells);
-                    screen.push(part);
-                }
+                screen.extend(parts);
             }
         }
         let piece = |tri: u32| -> Option<&Piece> {
             let &i = drawn.get(tri as usize)?;
             (i != NONE).then(|| &screen[i as usize])
         };
-        // Pairs across a shared edge that form a convex quad cover cells whole that
-        // neither triangle covers alone (the diagonal of every quad face); likewise
-        // the two halves of a clipped quad.
-        for (at, p) in screen.iter().enumerate() {
+        // Covers first, nearest pieces first, so that what they hide is skipped in
+        // both passes. Pairs across a shared edge that form a convex quad cover cells
+        // whole that neither triangle covers alone (the diagonal of every quad
+        // face); likewise the two halves of a clipped quad. A pair is folded in when
+        // its farther piece is.
+        let mut order: Vec<u32> = (0..screen.len() as u32).collect();
+        order.sort_by(|&a, &b| {
+            let d = |i: u32| {
+                screen[i as usize]
+                    .t
+                    .depth
+                    .into_iter()
+                    .fold(f32::MAX, f32::min)
+            };
+            d(a).total_cmp(&d(b))
+        });
+        let mut cells = Cells::new(w, h);
+        let mut folded = vec![false; screen.len()];
+        for &at in &order {
+            let at = at as usize;
+            let p = &screen[at];
+            cover_triangle(&p.t, &mut cells);
+            folded[at] = true;
             if p.whole {
                 for e in 0..3 {
-                    let Some(n) = neighbours.of(p.tri, e).and_then(piece) else {
+                    let Some(&n) = neighbours.of(p.tri, e).and_then(|s| drawn.get(s as usize))
+                    else {
                         continue;
                     };
-                    if n.whole && n.tri > p.tri && n.t.facing == p.t.facing {
-                        cover_pair(&p.t, e, &n.t, w, h, &mut cells);
+                    if n == NONE || !folded[n as usize] {
+                        continue;
+                    }
+                    let n = &screen[n as usize];
+                    if n.whole && n.t.facing == p.t.facing {
+                        cover_pair(&p.t, e, &n.t, &mut cells);
                     }
                 }
-            } else if let Some(n) = screen.get(at + 1).filter(|n| n.tri == p.tri) {
-                cover_pair(&p.t, 2, &n.t, w, h, &mut cells);
+            } else {
+                let first = drawn[p.tri as usize] as usize;
+                let other = if at == first { at + 1 } else { first };
+                let halves = screen.get(other).is_some_and(|n| n.tri == p.tri);
+                if halves && folded[other] {
+                    let (one, two) = (&screen[first], &screen[first + 1]);
+                    cover_pair(&one.t, 2, &two.t, &mut cells);
+                }
             }
+        }
+        for p in &screen {
+            rasterize(&p.t, &mut cells);
         }
         let (lo, hi, touched) = cells.bounds();
         // Leak edges: the parts of edges where the first drawn surface may end (no

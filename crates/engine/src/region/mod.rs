@@ -56,6 +56,11 @@ pub use map::{RegionMap, Verdict};
 const MAX_MAP_HALF_DEG: f32 = 60.0;
 /// Margin around the view in each map, degrees: room for the dilation at its border.
 const MAP_MARGIN_DEG: f32 = 3.0;
+/// The least cell of a map, degrees at its centre. The answer holds at any cell
+/// size (its bounds hold over whole cells), so finer cells buy only tightness: on
+/// the street, cells half as wide keep 0–5 % fewer triangles for about 3× the time
+/// (docs/algorithm.md).
+const MAP_CELL_DEG: f32 = 0.2;
 /// Longest side of one map in pixels.
 const MAX_MAP_SIDE: u32 = 4096;
 
@@ -225,8 +230,9 @@ fn candidates(prep: &PreparedScene, cam: &Camera, region: &Region) -> (Vec<u32>,
 /// What a region map's pixel counts for beside a point pose's in a request's work
 /// budget. A region map is drawn with whole-cell bounds, edges and summed-area tables
 /// in scalar code, tens of times a point pixel's time on the native backend (a street
-/// region at 480×270: 120–360 ms, against under a millisecond for the point pose);
-/// 16 keeps one every-direction region at 960×540 within the default budget.
+/// region of 0.5 m turning 10° at 960×540: 60–75 ms on one core, against under a
+/// millisecond for the point pose); 16 keeps one every-direction region at 960×540
+/// within the default budget.
 pub const WORK_PER_MAP_PIXEL: u64 = 16;
 
 /// The work a camera asks for, in point-pose pixels: its viewport, or for a region
@@ -243,12 +249,13 @@ pub fn pixels(cam: &Camera) -> u64 {
 }
 
 /// The cameras of the maps drawn from the region's centre: one with the pose's view
-/// widened by the turn and a margin, at the pose's pixel size, or the six faces of a
+/// widened by the turn and a margin, at the pose's pixel size or [`MAP_CELL_DEG`], or the six faces of a
 /// cube (each 120° wide, so that boxes near a face's border fit in one of them).
 pub fn map_cameras(cam: &Camera, region: &Region) -> Vec<Camera> {
     let (tx, ty) = half_tangents(cam);
-    // The pose's pixel size in tangent units at the centre of its view.
-    let pixel = 2.0 * ty / cam.height as f32;
+    // The map's cell in tangent units at the centre of its view: the pose's pixel,
+    // or the least cell, whichever is larger.
+    let pixel = (2.0 * ty / cam.height as f32).max(MAP_CELL_DEG.to_radians());
     let widen = region.turn + MAP_MARGIN_DEG.to_radians();
     let (hx, hy) = (tx.atan() + widen, ty.atan() + widen);
     let limit = MAX_MAP_HALF_DEG.to_radians();

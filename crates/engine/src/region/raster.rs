@@ -63,8 +63,24 @@ pub(super) fn screen_triangle(cam: &Camera, corners: [Vec3; 3]) -> Option<Screen
     })
 }
 
-/// What the triangles touching each cell say of it while they are drawn.
+/// Side of the square tiles over which [`Cells`] keeps the greatest `cover`: a
+/// triangle behind a tile's greatest cover changes nothing in it and is skipped whole.
+const TILE: usize = 8;
+
+/// Whether depth `d` lies behind depth `cover` beyond the slack of f32 bounds.
+fn behind(d: f32, cover: f32) -> bool {
+    d * (1.0 - DEPTH_SLACK_REL) > cover * (1.0 + DEPTH_SLACK_REL) + DEPTH_SLACK_ABS
+}
+
+/// What the triangles touching each cell say of it while they are drawn: first the
+/// covers ([`cover_triangle`], [`cover_pair`], nearest first), then the rest
+/// ([`rasterize`]). A triangle whose every depth in a cell lies behind the cell's
+/// cover is never the first surface there, so it is left out of the cell: that
+/// keeps its depth range out of the cell's spread, and hidden triangles cost a
+/// tile test instead of a pass over their cells.
 pub(super) struct Cells {
+    w: usize,
+    h: usize,
     /// The least depth any of them has in the cell.
     lo: Vec<f32>,
     /// A bound on the first drawn depth at some point of the cell: the least of the
@@ -77,16 +93,25 @@ pub(super) struct Cells {
     /// of the greatest depth they have in it.
     cover: Vec<f32>,
     touched: Vec<bool>,
+    /// The greatest `cover` of each tile's cells, tiles row by row.
+    tile_cover: Vec<f32>,
+    tiles_w: usize,
 }
 
 impl Cells {
-    pub(super) fn new(n: usize) -> Self {
+    pub(super) fn new(w: usize, h: usize) -> Self {
+        let n = w * h;
+        let tiles_w = w.div_ceil(TILE);
         Cells {
+            w,
+            h,
             lo: vec![f32::INFINITY; n],
             anchor: vec![f32::INFINITY; n],
             spread: vec![0.0; n],
             cover: vec![f32::INFINITY; n],
             touched: vec![false; n],
+            tile_cover: vec![f32::INFINITY; tiles_w * h.div_ceil(TILE)],
+            tiles_w,
         }
     }
 
@@ -94,10 +119,11 @@ impl Cells {
     /// a cell where that surface is continuous: from the anchor's point to any point
     /// of the cell a straight path crosses each triangle once, and each changes the
     /// depth by at most its range in the cell, so the surface stays within the
-    /// anchor's depth plus the sum of the ranges. (Where it is not continuous a leak
-    /// edge shows in the cell, and the box test refuses such cells anyway.)
-    /// A surface that covers the whole cell bounds it too: the least such bound is
-    /// taken.
+    /// anchor's depth plus the sum of the ranges (of the triangles that may be the
+    /// first surface there: not those behind the cover). (Where it is not
+    /// continuous a leak edge shows in the cell, and the box test refuses such cells
+    /// anyway.) A surface that covers the whole cell bounds it too: the least such
+    /// bound is taken.
     pub(super) fn bounds(self) -> (Vec<f32>, Vec<f32>, Vec<bool>) {
         let hi = self
             .anchor
@@ -110,153 +136,237 @@ impl Cells {
             .collect();
         (self.lo, hi, self.touched)
     }
-}
 
-/// Folds the triangle into the cells it touches (exact separating-axis test of the
-/// triangle against each cell's closed square): its least depth and its depth range
-/// inside the cell, bounded by its corners' depths and by its plane at the cell's
-/// corners, and a bound on the first surface somewhere in the cell where it
-/// covers the cell's centre or surely meets the cell.
-pub(super) fn rasterize(t: &ScreenTriangle, w: usize, h: usize, cells: &mut Cells) {
-    let xs = t.p.map(|q| q[0]);
-    let ys = t.p.map(|q| q[1]);
-    let min = |v: [f32; 3]| v[0].min(v[1]).min(v[2]);
-    let max = |v: [f32; 3]| v[0].max(v[1]).max(v[2]);
-    let cx0 = min(xs).floor().max(0.0) as usize;
-    let cy0 = min(ys).floor().max(0.0) as usize;
-    let cx1 = (max(xs).floor() as i64).min(w as i64 - 1);
-    let cy1 = (max(ys).floor() as i64).min(h as i64 - 1);
-    if cx1 < 0 || cy1 < 0 || cx0 >= w || cy0 >= h {
-        return;
+    /// The cells `[x0, x1] × [y0, y1]` (inclusive) that the bounding box of `p`
+    /// touches on the map; `None` if none.
+    fn rect<const N: usize>(&self, p: &[[f32; 2]; N]) -> Option<[usize; 4]> {
+        let (mut x0, mut x1, mut y0, mut y1) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
+        for q in p {
+            (x0, x1, y0, y1) = (x0.min(q[0]), x1.max(q[0]), y0.min(q[1]), y1.max(q[1]));
+        }
+        let cx1 = (x1.floor() as i64).min(self.w as i64 - 1);
+        let cy1 = (y1.floor() as i64).min(self.h as i64 - 1);
+        let (cx0, cy0) = (x0.floor().max(0.0) as usize, y0.floor().max(0.0) as usize);
+        (cx1 >= 0 && cy1 >= 0 && cx0 <= cx1 as usize && cy0 <= cy1 as usize).then_some([
+            cx0,
+            cx1 as usize,
+            cy0,
+            cy1 as usize,
+        ])
     }
-    let (cx1, cy1) = (cx1 as usize, cy1 as usize);
-    let (dmin, dmax) = (min(t.depth), max(t.depth));
-    // Edge functions, positive inside: n·(q − a) with n turned towards the third corner.
-    let edges: [[f32; 3]; 3] = std::array::from_fn(|e| {
-        let (a, b, c) = (t.p[e], t.p[(e + 1) % 3], t.p[(e + 2) % 3]);
-        let (nx, ny) = (a[1] - b[1], b[0] - a[0]);
-        let k = -(nx * a[0] + ny * a[1]);
-        let s = if nx * c[0] + ny * c[1] + k >= 0.0 {
-            1.0
-        } else {
-            -1.0
-        };
-        [nx * s, ny * s, k * s]
-    });
-    let [pa, pb, pc] = t.plane;
-    for cy in cy0..=cy1 {
-        let (y0, y1) = (cy as f32, cy as f32 + 1.0);
-        let (fy0, fy1) = (f64::from(y0), f64::from(y1));
-        for cx in cx0..=cx1 {
-            let (x0, x1) = (cx as f32, cx as f32 + 1.0);
-            let (fx0, fx1) = (f64::from(x0), f64::from(x1));
-            // Separated if some edge is negative at the cell corner it favours most
-            // (with a little slack: touching more cells is conservative).
-            let apart = edges.iter().any(|&[nx, ny, k]| {
-                let x = if nx >= 0.0 { x1 } else { x0 };
-                let y = if ny >= 0.0 { y1 } else { y0 };
-                nx * x + ny * y + k < -1e-3 * (nx.abs() + ny.abs())
-            });
-            if apart {
-                continue;
-            }
-            let corners = [
-                pa * fx0 + pb * fy0 + pc,
-                pa * fx1 + pb * fy0 + pc,
-                pa * fx0 + pb * fy1 + pc,
-                pa * fx1 + pb * fy1 + pc,
-            ];
-            let (iz_lo, iz_hi) = (
-                corners.iter().copied().fold(f64::INFINITY, f64::min),
-                corners.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-            );
-            // Farthest: the plane's least 1/d over the cell, where it stays in front.
-            let far = if iz_lo > 0.0 {
-                ((1.0 / iz_lo) as f32).min(dmax)
-            } else {
-                dmax
-            };
-            let near = if iz_hi > 0.0 {
-                ((1.0 / iz_hi) as f32).max(dmin)
-            } else {
-                dmin
-            };
-            let i = cy * w + cx;
-            let whole = edges.iter().all(|&[nx, ny, k]| {
-                let x = if nx >= 0.0 { x0 } else { x1 };
-                let y = if ny >= 0.0 { y0 } else { y1 };
-                nx * x + ny * y + k > 1e-3 * (nx.abs() + ny.abs())
-            });
-            if whole {
-                cells.cover[i] = cells.cover[i].min(far);
-            }
-            cells.lo[i] = cells.lo[i].min(near * (1.0 - DEPTH_SLACK_REL));
-            cells.spread[i] += (far - near).max(0.0) * (1.0 + DEPTH_SLACK_REL);
-            cells.touched[i] = true;
-            // The centre counts as covered only inside every edge by a margin.
-            let (mx, my) = (x0 + 0.5, y0 + 0.5);
-            let inside = edges
-                .iter()
-                .all(|&[nx, ny, k]| nx * mx + ny * my + k > 1e-3 * (nx.abs() + ny.abs()));
-            if inside {
-                let iz = pa * f64::from(mx) + pb * f64::from(my) + pc;
-                if iz > 0.0 {
-                    let d = ((1.0 / iz) as f32).clamp(dmin, dmax);
-                    cells.anchor[i] = cells.anchor[i].min(d);
+
+    /// Calls `f` with each cell index of `rect` whose tile's greatest cover a depth
+    /// of `dmin` does not lie behind, tile by tile; then refreshes the greatest cover
+    /// of the tiles where `f` said it lowered one.
+    fn each_cell(
+        &mut self,
+        rect: [usize; 4],
+        dmin: f32,
+        mut f: impl FnMut(&mut Self, usize) -> bool,
+    ) {
+        let [cx0, cx1, cy0, cy1] = rect;
+        for ty in cy0 / TILE..=cy1 / TILE {
+            for tx in cx0 / TILE..=cx1 / TILE {
+                let tile = ty * self.tiles_w + tx;
+                if behind(dmin, self.tile_cover[tile]) {
+                    continue;
                 }
-            }
-            // A triangle that surely meets the cell (no axis separates them even by a
-            // margin) bounds the first surface at some point of it by its far depth:
-            // what holds a cell whose centre lies on a seam of two triangles.
-            let m = 1e-3;
-            let meets = min(xs) < x1 - m
-                && max(xs) > x0 + m
-                && min(ys) < y1 - m
-                && max(ys) > y0 + m
-                && edges.iter().all(|&[nx, ny, k]| {
-                    let x = if nx >= 0.0 { x1 } else { x0 };
-                    let y = if ny >= 0.0 { y1 } else { y0 };
-                    nx * x + ny * y + k > m * (nx.abs() + ny.abs())
-                });
-            if meets {
-                cells.anchor[i] = cells.anchor[i].min(far);
+                let (ys, xs) = (ty * TILE..(ty + 1) * TILE, tx * TILE..(tx + 1) * TILE);
+                let mut lowered = false;
+                for cy in ys.start.max(cy0)..ys.end.min(cy1 + 1) {
+                    for cx in xs.start.max(cx0)..xs.end.min(cx1 + 1) {
+                        lowered |= f(self, cy * self.w + cx);
+                    }
+                }
+                if lowered {
+                    let mut most = f32::NEG_INFINITY;
+                    for cy in ys.start..ys.end.min(self.h) {
+                        for cx in xs.start..xs.end.min(self.w) {
+                            most = most.max(self.cover[cy * self.w + cx]);
+                        }
+                    }
+                    self.tile_cover[tile] = most;
+                }
             }
         }
     }
+
+    /// Lowers cell `i`'s cover to `far`; whether it did.
+    fn lower_cover(&mut self, i: usize, far: f32) -> bool {
+        let lower = far < self.cover[i];
+        if lower {
+            self.cover[i] = far;
+            self.touched[i] = true;
+        }
+        lower
+    }
+
+    /// The cell `[x0, x1] × [y0, y1]` of index `i`.
+    fn cell(&self, i: usize) -> [f32; 4] {
+        let (x, y) = ((i % self.w) as f32, (i / self.w) as f32);
+        [x, x + 1.0, y, y + 1.0]
+    }
 }
 
-/// The greatest depth triangle `t` has in the cell `[x0, x1] × [y0, y1]`: its plane
-/// at the cell's corners where it stays in front there, and its farthest corner.
-fn far_in(t: &ScreenTriangle, [x0, x1, y0, y1]: [f64; 4]) -> f32 {
+/// Edge functions of a convex polygon, positive inside: `n·(q − a)` with `n` turned
+/// towards the inside (the polygon's corners turn one way, `sign` saying which).
+fn edge_functions<const N: usize>(p: &[[f32; 2]; N], sign: f32) -> [[f32; 3]; N] {
+    std::array::from_fn(|i| {
+        let (a, b) = (p[i], p[(i + 1) % N]);
+        let (nx, ny) = ((a[1] - b[1]) * sign, (b[0] - a[0]) * sign);
+        [nx, ny, -(nx * a[0] + ny * a[1])]
+    })
+}
+
+/// Which way a triangle's corners turn on screen: `1` or `-1`.
+fn turn_sign(p: &[[f32; 2]; 3]) -> f32 {
+    let [a, b, c] = *p;
+    let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+    if area >= 0.0 { 1.0 } else { -1.0 }
+}
+
+/// Whether every edge function is positive over the whole cell by a margin `m`.
+fn holds_cell(edges: &[[f32; 3]], [x0, x1, y0, y1]: [f32; 4], m: f32) -> bool {
+    edges.iter().all(|&[nx, ny, k]| {
+        let x = if nx >= 0.0 { x0 } else { x1 };
+        let y = if ny >= 0.0 { y0 } else { y1 };
+        nx * x + ny * y + k > m * (nx.abs() + ny.abs())
+    })
+}
+
+/// Whether some edge function is negative over the whole cell by more than `m`.
+fn misses_cell(edges: &[[f32; 3]], [x0, x1, y0, y1]: [f32; 4], m: f32) -> bool {
+    edges.iter().any(|&[nx, ny, k]| {
+        let x = if nx >= 0.0 { x1 } else { x0 };
+        let y = if ny >= 0.0 { y1 } else { y0 };
+        nx * x + ny * y + k < -m * (nx.abs() + ny.abs())
+    })
+}
+
+/// The least and greatest `1/depth` of triangle `t`'s plane over the cell `[x0, x1]
+/// × [y0, y1]`: at the corners its gradient picks (the plane is affine on screen).
+fn inverse_depths(t: &ScreenTriangle, cell: [f32; 4]) -> (f64, f64) {
+    let [x0, x1, y0, y1] = cell.map(f64::from);
     let [a, b, c] = t.plane;
-    let iz = [
-        a * x0 + b * y0,
-        a * x1 + b * y0,
-        a * x0 + b * y1,
-        a * x1 + b * y1,
-    ]
-    .map(|v| v + c)
-    .into_iter()
-    .fold(f64::INFINITY, f64::min);
+    let (xl, xh) = if a >= 0.0 { (x0, x1) } else { (x1, x0) };
+    let (yl, yh) = if b >= 0.0 { (y0, y1) } else { (y1, y0) };
+    (a * xl + b * yl + c, a * xh + b * yh + c)
+}
+
+/// The greatest depth triangle `t` has in the cell: its plane's where that stays
+/// in front over the cell, within its corners' depths.
+fn far_in(t: &ScreenTriangle, cell: [f32; 4]) -> f32 {
     let dmax = t.depth[0].max(t.depth[1]).max(t.depth[2]);
-    if iz > 0.0 {
-        ((1.0 / iz) as f32).min(dmax)
+    let (iz_lo, _) = inverse_depths(t, cell);
+    if iz_lo > 0.0 {
+        ((1.0 / iz_lo) as f32).min(dmax)
     } else {
         dmax
     }
 }
 
-/// Folds the quad of `t` and `n`, which share `t`'s edge `e`, into the cells it
-/// covers whole, where it is convex: their `cover` takes the greater of the two
-/// triangles' greatest depths in the cell.
-pub(super) fn cover_pair(
-    t: &ScreenTriangle,
-    e: usize,
-    n: &ScreenTriangle,
-    w: usize,
-    h: usize,
-    cells: &mut Cells,
-) {
+/// The least and greatest depth triangle `t` has in the cell (as [`far_in`]).
+fn depth_in(t: &ScreenTriangle, cell: [f32; 4]) -> (f32, f32) {
+    let (iz_lo, iz_hi) = inverse_depths(t, cell);
+    let dmin = t.depth[0].min(t.depth[1]).min(t.depth[2]);
+    let dmax = t.depth[0].max(t.depth[1]).max(t.depth[2]);
+    let far = if iz_lo > 0.0 {
+        ((1.0 / iz_lo) as f32).min(dmax)
+    } else {
+        dmax
+    };
+    let near = if iz_hi > 0.0 {
+        ((1.0 / iz_hi) as f32).max(dmin)
+    } else {
+        dmin
+    };
+    (near, far)
+}
+
+/// The least depth of a triangle.
+fn nearest(t: &ScreenTriangle) -> f32 {
+    t.depth[0].min(t.depth[1]).min(t.depth[2])
+}
+
+/// Folds the triangle into the covers of the cells it covers whole: its greatest
+/// depth in each.
+pub(super) fn cover_triangle(t: &ScreenTriangle, cells: &mut Cells) {
+    let Some(rect) = cells.rect(&t.p) else {
+        return;
+    };
+    let edges = edge_functions(&t.p, turn_sign(&t.p));
+    cells.each_cell(rect, nearest(t), |cells, i| {
+        let cell = cells.cell(i);
+        holds_cell(&edges, cell, 1e-3) && cells.lower_cover(i, far_in(t, cell))
+    });
+}
+
+/// Folds the triangle into the cells it touches where it may be the first surface
+/// (exact separating-axis test of the triangle against each cell's closed square;
+/// not behind the cell's cover): its least depth and its depth range inside the
+/// cell, and a bound on the first surface somewhere in the cell where it covers the
+/// cell's centre or surely meets the cell. The covers must be folded in first.
+pub(super) fn rasterize(t: &ScreenTriangle, cells: &mut Cells) {
+    let Some(rect) = cells.rect(&t.p) else {
+        return;
+    };
+    let xs = t.p.map(|q| q[0]);
+    let ys = t.p.map(|q| q[1]);
+    let min = |v: [f32; 3]| v[0].min(v[1]).min(v[2]);
+    let max = |v: [f32; 3]| v[0].max(v[1]).max(v[2]);
+    let (dmin, dmax) = (min(t.depth), max(t.depth));
+    let edges = edge_functions(&t.p, turn_sign(&t.p));
+    let [pa, pb, pc] = t.plane;
+    cells.each_cell(rect, dmin, |cells, i| {
+        let cell @ [x0, x1, y0, y1] = cells.cell(i);
+        // Separated if some edge is negative at the cell corner it favours most
+        // (with a little slack: touching more cells is conservative).
+        if misses_cell(&edges, cell, 1e-3) {
+            return false;
+        }
+        let (near, far) = depth_in(t, cell);
+        if behind(near, cells.cover[i]) {
+            return false; // never the first surface here
+        }
+        cells.lo[i] = cells.lo[i].min(near * (1.0 - DEPTH_SLACK_REL));
+        cells.spread[i] += (far - near).max(0.0) * (1.0 + DEPTH_SLACK_REL);
+        cells.touched[i] = true;
+        // The centre counts as covered only inside every edge by a margin.
+        let (mx, my) = (x0 + 0.5, y0 + 0.5);
+        let inside = edges
+            .iter()
+            .all(|&[nx, ny, k]| nx * mx + ny * my + k > 1e-3 * (nx.abs() + ny.abs()));
+        if inside {
+            let iz = pa * f64::from(mx) + pb * f64::from(my) + pc;
+            if iz > 0.0 {
+                let d = ((1.0 / iz) as f32).clamp(dmin, dmax);
+                cells.anchor[i] = cells.anchor[i].min(d);
+            }
+        }
+        // A triangle that surely meets the cell (no axis separates them even by a
+        // margin) bounds the first surface at some point of it by its far depth:
+        // what holds a cell whose centre lies on a seam of two triangles.
+        let m = 1e-3;
+        let meets = min(xs) < x1 - m
+            && max(xs) > x0 + m
+            && min(ys) < y1 - m
+            && max(ys) > y0 + m
+            && edges.iter().all(|&[nx, ny, k]| {
+                let x = if nx >= 0.0 { x1 } else { x0 };
+                let y = if ny >= 0.0 { y1 } else { y0 };
+                nx * x + ny * y + k > m * (nx.abs() + ny.abs())
+            });
+        if meets {
+            cells.anchor[i] = cells.anchor[i].min(far);
+        }
+        false
+    });
+}
+
+/// Folds the quad of `t` and `n`, which share `t`'s edge `e`, into the covers of the
+/// cells it covers whole, where it is convex: the greater of the two triangles'
+/// greatest depths in the cell.
+pub(super) fn cover_pair(t: &ScreenTriangle, e: usize, n: &ScreenTriangle, cells: &mut Cells) {
     let (a, b, c) = (t.p[e], t.p[(e + 1) % 3], t.p[(e + 2) % 3]);
     // The corner of `n` off the shared edge (welded corners project identically).
     let Some(&d) = n.p.iter().find(|&&q| q != a && q != b) else {
@@ -272,40 +382,14 @@ pub(super) fn cover_pair(
     if !turns.iter().all(|&x| x * sign > 1e-6) {
         return; // not strictly convex
     }
-    // Edge functions, positive inside.
-    let edges: [[f32; 3]; 4] = std::array::from_fn(|i| {
-        let (p, q) = (quad[i], quad[(i + 1) % 4]);
-        let (nx, ny) = ((p[1] - q[1]) * sign, (q[0] - p[0]) * sign);
-        [nx, ny, -(nx * p[0] + ny * p[1])]
-    });
-    let xs = quad.map(|q| q[0]);
-    let ys = quad.map(|q| q[1]);
-    let lo = |v: [f32; 4]| v.into_iter().fold(f32::INFINITY, f32::min);
-    let hi = |v: [f32; 4]| v.into_iter().fold(f32::NEG_INFINITY, f32::max);
-    let cx0 = lo(xs).floor().max(0.0) as usize;
-    let cy0 = lo(ys).floor().max(0.0) as usize;
-    let cx1 = (hi(xs).floor() as i64).min(w as i64 - 1);
-    let cy1 = (hi(ys).floor() as i64).min(h as i64 - 1);
-    if cx1 < 0 || cy1 < 0 {
+    let Some(rect) = cells.rect(&quad) else {
         return;
-    }
-    for cy in cy0..=cy1 as usize {
-        let (y0, y1) = (cy as f32, cy as f32 + 1.0);
-        for cx in cx0..=cx1 as usize {
-            let (x0, x1) = (cx as f32, cx as f32 + 1.0);
-            let whole = edges.iter().all(|&[nx, ny, k]| {
-                let x = if nx >= 0.0 { x0 } else { x1 };
-                let y = if ny >= 0.0 { y0 } else { y1 };
-                nx * x + ny * y + k > 1e-3 * (nx.abs() + ny.abs())
-            });
-            if whole {
-                let box4 = [x0, x1, y0, y1].map(f64::from);
-                let far = far_in(t, box4).max(far_in(n, box4));
-                let i = cy * w + cx;
-                cells.cover[i] = cells.cover[i].min(far);
-            }
-        }
-    }
+    };
+    let edges = edge_functions(&quad, sign);
+    cells.each_cell(rect, nearest(t).min(nearest(n)), |cells, i| {
+        let cell = cells.cell(i);
+        holds_cell(&edges, cell, 1e-3) && cells.lower_cover(i, far_in(t, cell).max(far_in(n, cell)))
+    });
 }
 
 /// Marks every cell that the edge from `a` to `b` (pixel position, view depth) passes
