@@ -29,8 +29,9 @@ pub use rest::*;
 /// it in the low 16 bits of header word 1, the Hello's JSON as `protocol_version`.
 /// Version 2 shrank the header and the stats block so that deltas stay small; version 3
 /// added the frames with levels of detail (kinds 6 and 7); version 4 names the scene
-/// version in the stats block and added the writer's frames (kinds 8 and 9).
-pub const PROTOCOL_VERSION: u32 = 4;
+/// version in the stats block and added the writer's frames (kinds 8 and 9); version
+/// 5 added the region frame (kind 10).
+pub const PROTOCOL_VERSION: u32 = 5;
 
 /// A camera pose (conventions in ARCHITECTURE.md: right-handed, Y up, metres).
 ///

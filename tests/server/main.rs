@@ -18,6 +18,7 @@ mod server_transforms;
 mod ws;
 mod ws_hostile;
 mod ws_lod;
+mod ws_region;
 mod ws_seen_first;
 mod ws_smoothing;
 mod ws_stereo;

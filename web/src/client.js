@@ -463,6 +463,10 @@ export class HomcullClient extends EventTarget {
         return this._onVisible(frame);
       case "error":
         return this._onError(frame);
+      case "region":
+        // A region stream (`?region_m=`): the next set holds for this region.
+        this.region = { centre: frame.centre, radius_m: frame.radius_m, axis: frame.axis, turn_deg: frame.turn_deg, ack: frame.ack };
+        return this._emit("region", this.region);
       default:
         this._emit("error", { code: "protocol", message: `unexpected ${frame.kind} frame from the server`, fatal: false });
     }

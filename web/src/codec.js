@@ -30,7 +30,7 @@
 /** First word of every frame: bytes 48 4D 43 4C ("HMCL") read as a little-endian u32. */
 export const MAGIC = 0x4c434d48;
 /** Version of the wire protocol this client speaks. */
-export const PROTOCOL_VERSION = 4;
+export const PROTOCOL_VERSION = 5;
 /** Words in the frame header: magic, version | kind << 16, seq, ack. */
 export const HEADER_WORDS = 4;
 /** Bytes in the frame header. */
@@ -53,6 +53,8 @@ export const MAX_LEVEL = 8;
 export const NO_VALUE = 0xffffffff;
 /** Words per object of a Transforms frame. */
 export const MOVED_OBJECT_WORDS = 20;
+/** Words in a Region payload: centre xyz, radius_m, axis xyz, turn_deg. */
+export const REGION_WORDS = 8;
 
 /** Frame kinds (the high 16 bits of header word 1). */
 export const FrameKind = Object.freeze({
@@ -65,8 +67,9 @@ export const FrameKind = Object.freeze({
   DELTA_LOD: 7,
   TRANSFORMS: 8,
   APPLIED: 9,
+  REGION: 10,
 });
-const KIND_NAMES = ["", "hello", "pose", "full", "delta", "error", "full_lod", "delta_lod", "transforms", "applied"];
+const KIND_NAMES = ["", "hello", "pose", "full", "delta", "error", "full_lod", "delta_lod", "transforms", "applied", "region"];
 
 /** Error codes carried by Error frames. */
 export const ErrorCode = Object.freeze({
@@ -380,6 +383,12 @@ export function decodeFrame(input) {
       tail(0);
       return { kind, seq, ack, version: lo + hi * 2 ** 32, applied };
     }
+    case "region": {
+      fixed(REGION_WORDS);
+      tail(0);
+      const f = (i) => view.getFloat32((HEADER_WORDS + i) * 4, true);
+      return { kind, seq, ack, centre: [f(0), f(1), f(2)], radius_m: f(3), axis: [f(4), f(5), f(6)], turn_deg: f(7) };
+    }
     case "error": {
       const [code, byteLen] = fixed(2);
       const name = errorCodeName(code);
@@ -523,6 +532,9 @@ export function encodeFrame(frame) {
       words.push(version % 2 ** 32, Math.floor(version / 2 ** 32), u32("applied", frame.applied));
       break;
     }
+    case "region":
+      for (const v of [...frame.centre, frame.radius_m, ...frame.axis, frame.turn_deg]) words.push(f32Bits("region field", v));
+      break;
   }
   const textWords = textBytes ? Math.ceil(textBytes.length / 4) : 0;
   const payloadWords = words.length + textWords;
@@ -619,6 +631,9 @@ export function validateFrame(frame) {
       break;
     case "applied":
       payload = 3;
+      break;
+    case "region":
+      payload = REGION_WORDS;
       break;
     default:
       kindCodeOf(frame.kind);

@@ -79,7 +79,7 @@ function harness({ fetchImpl, random = () => 0.5 } = {}) {
     random,
     fetch: fetchImpl ?? (async () => ({ status: 200, ok: true, json: async () => ({ id: "demo" }) })),
   });
-  for (const type of ["state", "hello", "visible", "stats", "error", "pose", "placements"]) {
+  for (const type of ["state", "hello", "visible", "stats", "error", "pose", "placements", "region"]) {
     client.addEventListener(type, (e) => events.push({ type, ...e.detail }));
   }
   return {
@@ -211,6 +211,21 @@ test("latest pose wins: at most one pose per animation frame, unchanged poses no
   assert.equal(ws.sent.length, 5);
   assert.deepEqual(ws.sent[4].viewport, [800, 600]);
   assert.deepEqual(h.of("pose").map((e) => e.seq), [1, 2, 3, 4, 5]);
+});
+
+test("a region frame is surfaced and held until the next one; the set follows it", () => {
+  const h = harness();
+  h.client.connect();
+  const ws = h.last();
+  ws.hello();
+  h.client.setPose(pose(1));
+  const region = { centre: [1, Math.fround(1.7), 0], radius_m: 0.5, axis: [0, 0, -1], turn_deg: 15 };
+  ws.receive({ kind: "region", seq: 1, ack: 1, ...region });
+  ws.receive({ kind: "full", seq: 2, ack: 1, stats: STATS, ids: [1, 4, 7] });
+  assert.deepEqual(h.of("region"), [{ type: "region", ...region, ack: 1 }]);
+  assert.deepEqual(h.client.region, { ...region, ack: 1 });
+  assert.deepEqual(h.client.visible.ids, [1, 4, 7]);
+  assert.equal(h.of("error").length, 0, "a region frame is no protocol error");
 });
 
 test("full and delta frames update the visible set; RTT is measured per pose by ack", () => {
@@ -368,7 +383,7 @@ test("protocol mismatch and fatal error frames stop the client; other errors do 
   h.last().receiveBytes(bytes);
   const e = h.of("error").at(-1);
   assert.equal(e.fatal, true);
-  assert.match(e.message, /protocol mismatch: the server speaks version 1, this client version 4/);
+  assert.match(e.message, new RegExp(`protocol mismatch: the server speaks version 1, this client version ${PROTOCOL_VERSION}`));
   assert.equal(h.client.state, State.FAILED);
   assert.equal(h.last().closed.code, 1000);
 

@@ -77,6 +77,8 @@ function expectedFrame(entry) {
       return { ...common, horizon_ms: entry.horizon_ms, objects: entry.objects };
     case "applied":
       return { ...common, version: entry.version, applied: entry.applied };
+    case "region":
+      return { ...common, centre: entry.centre, radius_m: entry.radius_m, axis: entry.axis, turn_deg: entry.turn_deg };
   }
   throw new Error(`unknown kind ${entry.kind}`);
 }
@@ -226,18 +228,18 @@ function cases() {
       "a version 1 full frame (version word 1, kind in word 2, payload length in word 5)",
       bytes([MAGIC, 1, 3, 2, 42, 9, 1234, 10, 1224, 4, 2, 1, 850, 1200, 0]),
       "UnsupportedVersion",
-      { found: 1, supported: 4 },
+      { found: 1, supported: PROTOCOL_VERSION },
     ],
     [
       "version 3 (before the scene version word and the writer's frames)",
       bytes([MAGIC, versionKind(3, 3), 0, 0]),
       "UnsupportedVersion",
-      { found: 3, supported: 4 },
+      { found: 3, supported: PROTOCOL_VERSION },
     ],
-    ["version 0", bytes([MAGIC, versionKind(0, 3), 0, 0]), "UnsupportedVersion", { found: 0, supported: 4 }],
-    ["version and kind swapped", bytes([MAGIC, versionKind(3, 4), 0, 0]), "UnsupportedVersion", { found: 3, supported: 4 }],
+    ["version 0", bytes([MAGIC, versionKind(0, 3), 0, 0]), "UnsupportedVersion", { found: 0, supported: PROTOCOL_VERSION }],
+    ["version and kind swapped", bytes([MAGIC, versionKind(3, 4), 0, 0]), "UnsupportedVersion", { found: 3, supported: PROTOCOL_VERSION }],
     ["kind 0", frame(0, 0, 0, []), "UnknownKind", { kind: 0 }],
-    ["kind 10", frame(10, 0, 0, []), "UnknownKind", { kind: 10 }],
+    ["kind 11", frame(11, 0, 0, []), "UnknownKind", { kind: 11 }],
     ["kind 0xffff", frame(0xffff, 0, 0, []), "UnknownKind", { kind: 0xffff }],
     ["hello with an ack", frame(1, 1, 9, textPayload(5, "{}", 0)), "NonZeroAck", { kind: "hello", ack: 9 }],
     ["pose with an ack", poseWithAck, "NonZeroAck", { kind: "pose", ack: 3 }],

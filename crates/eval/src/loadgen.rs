@@ -476,7 +476,11 @@ async fn ws_client(
                     s.errors += 1;
                     (e.ack, 0)
                 }
-                Frame::Hello(_) | Frame::Pose(_) | Frame::Transforms(_) | Frame::Applied(_) => {
+                Frame::Hello(_)
+                | Frame::Pose(_)
+                | Frame::Transforms(_)
+                | Frame::Applied(_)
+                | Frame::Region(_) => {
                     continue;
                 }
             };

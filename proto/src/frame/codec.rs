@@ -18,6 +18,7 @@ impl Frame {
             Frame::Error(_) => FrameKind::Error,
             Frame::Transforms(_) => FrameKind::Transforms,
             Frame::Applied(_) => FrameKind::Applied,
+            Frame::Region(_) => FrameKind::Region,
         }
     }
 
@@ -31,6 +32,7 @@ impl Frame {
             Frame::Error(f) => f.seq,
             Frame::Transforms(f) => f.seq,
             Frame::Applied(f) => f.seq,
+            Frame::Region(f) => f.seq,
         }
     }
 
@@ -40,6 +42,7 @@ impl Frame {
         match self {
             Frame::Hello(_) | Frame::Pose(_) | Frame::Transforms(_) => 0,
             Frame::Applied(f) => f.ack,
+            Frame::Region(f) => f.ack,
             Frame::Full(f) => f.ack,
             Frame::Delta(f) => f.ack,
             Frame::Error(f) => f.ack,
@@ -68,6 +71,7 @@ impl Frame {
             Frame::Error(e) => 2 + e.message.len().div_ceil(4),
             Frame::Transforms(t) => t.payload_words(),
             Frame::Applied(_) => Applied::PAYLOAD_WORDS,
+            Frame::Region(_) => RegionFrame::PAYLOAD_WORDS,
         }
     }
 
@@ -117,7 +121,11 @@ impl Frame {
                 }
             }
             Frame::Transforms(t) => t.validate(),
-            Frame::Hello(_) | Frame::Pose(_) | Frame::Error(_) | Frame::Applied(_) => Ok(()),
+            Frame::Hello(_)
+            | Frame::Pose(_)
+            | Frame::Error(_)
+            | Frame::Applied(_)
+            | Frame::Region(_) => Ok(()),
         }
     }
 
@@ -209,6 +217,7 @@ impl Frame {
             }
             Frame::Transforms(t) => t.write(&mut w),
             Frame::Applied(a) => a.write(&mut w),
+            Frame::Region(r) => r.write(&mut w),
         }
         debug_assert_eq!(w.0.len(), self.encoded_len());
         w.0
@@ -375,6 +384,7 @@ impl Frame {
             }
             FrameKind::Transforms => Frame::Transforms(TransformsFrame::read(seq, &mut p)?),
             FrameKind::Applied => Frame::Applied(Applied::read(seq, ack, &mut p)?),
+            FrameKind::Region => Frame::Region(RegionFrame::read(seq, ack, &mut p)?),
             FrameKind::Error => {
                 let [code, byte_len] = p.fixed()?;
                 let code =

@@ -15,9 +15,9 @@
 //! | word | field            | meaning                                                        |
 //! |-----:|------------------|----------------------------------------------------------------|
 //! | 0    | `magic`          | [`MAGIC`] `0x4C434D48`: bytes `48 4D 43 4C`, ASCII `HMCL`       |
-//! | 1    | `version \| kind << 16` | low 16 bits: [`PROTOCOL_VERSION`] (currently 4); high 16 bits: [`FrameKind`], 1 Hello, 2 Pose, 3 Full, 4 Delta, 5 Error, 6 FullLod, 7 DeltaLod, 8 Transforms, 9 Applied |
+//! | 1    | `version \| kind << 16` | low 16 bits: [`PROTOCOL_VERSION`] (currently 5); high 16 bits: [`FrameKind`], 1 Hello, 2 Pose, 3 Full, 4 Delta, 5 Error, 6 FullLod, 7 DeltaLod, 8 Transforms, 9 Applied, 10 Region |
 //! | 2    | `seq`            | the sender's sequence number (see below)                      |
-//! | 3    | `ack`            | Full/Delta/Error: the pose `seq` answered, 0 if none; Applied: the Transforms `seq`; Hello, Pose and Transforms: always 0 |
+//! | 3    | `ack`            | Full/Delta/Error: the pose `seq` answered, 0 if none; Applied: the Transforms `seq`; Region: the pose whose cull made it; Hello, Pose and Transforms: always 0 |
 //!
 //! `seq` is the client's pose sequence number in a Pose frame, and the server's frame
 //! counter for that client in the frames the server sends.
@@ -38,6 +38,7 @@
 //!
 //! | 8 Transforms | client → server | `[horizon_ms][count]`, then per object 20 words `[id][matrix: 12][velocity: 3][angular_velocity: 3][valid_ms]` |
 //! | 9 Applied | server → client | `[version_lo][version_hi][applied]`                                       |
+//! | 10 Region | server → client | `[cx][cy][cz][radius_m][ax][ay][az][turn_deg]` (8 `f32` words)          |
 //!
 //! - **Hello**: the JSON is opaque to the codec (the server puts its `SceneInfo` and the
 //!   like there); the decoder only checks that it is UTF-8. `object_count` is also what
@@ -70,6 +71,10 @@
 //!   `f32` is the word [`motion::NO_VALUE`] when absent); the server answers with the
 //!   scene version the update made ([`Applied`], `ack` = the update's `seq`) or an Error
 //!   frame (`invalid_transform`, `unauthorized`).
+//! - **Region** (version 5): on a stream opened with a region, the region that the
+//!   next Full or Delta frame's set holds for ([`RegionFrame`]): every eye within
+//!   `radius_m` of the centre, looking within `turn_deg` of the axis. The poses that
+//!   stay inside are answered with empty deltas, without a cull.
 //!
 //! The stats block of Full and Delta is 6 `u32` words ([`FrameStats`]):
 //!
@@ -167,6 +172,7 @@ mod codec;
 mod delta;
 mod error;
 pub mod motion;
+mod region;
 mod stats;
 mod words;
 
@@ -177,6 +183,7 @@ use crate::{Pose, Stereo};
 pub use delta::{apply_delta, apply_delta_with_levels, diff, diff_levels};
 pub use error::FrameError;
 pub use motion::{Applied, MovedObject, TransformsFrame};
+pub use region::RegionFrame;
 pub use stats::FrameStats;
 
 /// First word of every frame: the bytes `48 4D 43 4C` (ASCII `HMCL`) read as a
@@ -238,11 +245,12 @@ pub enum FrameKind {
     Transforms = 8,
     /// Server → client, a writer's update applied: the scene version it made.
     Applied = 9,
+    Region = 10,
 }
 
 impl FrameKind {
     /// All kinds, in wire-code order.
-    pub const ALL: [FrameKind; 9] = [
+    pub const ALL: [FrameKind; 10] = [
         FrameKind::Hello,
         FrameKind::Pose,
         FrameKind::Full,
@@ -252,6 +260,7 @@ impl FrameKind {
         FrameKind::DeltaLod,
         FrameKind::Transforms,
         FrameKind::Applied,
+        FrameKind::Region,
     ];
 
     /// The kind with wire code `code`, if any.
@@ -272,6 +281,7 @@ impl FrameKind {
             FrameKind::DeltaLod => "delta_lod",
             FrameKind::Transforms => "transforms",
             FrameKind::Applied => "applied",
+            FrameKind::Region => "region",
         }
     }
 }
@@ -532,6 +542,7 @@ pub enum Frame {
     Transforms(TransformsFrame),
     /// Kind 9, server → client.
     Applied(Applied),
+    Region(RegionFrame),
 }
 
 impl From<Hello> for Frame {

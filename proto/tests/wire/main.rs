@@ -8,6 +8,7 @@
 mod common;
 
 mod golden;
+mod golden_frames;
 mod reject;
 mod reject_levels;
 mod roundtrip;

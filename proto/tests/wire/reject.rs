@@ -6,6 +6,7 @@ use std::collections::BTreeSet;
 
 use common::*;
 
+use homcull_proto::PROTOCOL_VERSION;
 use homcull_proto::frame::{
     ErrorCode, Frame, FrameError, FrameKind, FrameStats, HEADER_BYTES, MAGIC, MAX_DELTA_IDS,
     MAX_FRAME_BYTES, VisibleDelta, apply_delta,
@@ -51,7 +52,7 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             bytes(&[MAGIC, 1, 3, 2, 42, 9, 1234, 10, 1224, 4, 2, 1, 850, 1200, 0]),
             E::UnsupportedVersion {
                 found: 1,
-                supported: 4,
+                supported: PROTOCOL_VERSION,
             },
         ),
         (
@@ -59,7 +60,7 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             bytes(&[MAGIC, version_kind(3, 3), 0, 0]),
             E::UnsupportedVersion {
                 found: 3,
-                supported: 4,
+                supported: PROTOCOL_VERSION,
             },
         ),
         (
@@ -67,7 +68,7 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             bytes(&[MAGIC, version_kind(0, 3), 0, 0]),
             E::UnsupportedVersion {
                 found: 0,
-                supported: 4,
+                supported: PROTOCOL_VERSION,
             },
         ),
         (
@@ -75,11 +76,11 @@ fn cases() -> Vec<(&'static str, Vec<u8>, FrameError)> {
             bytes(&[MAGIC, version_kind(3, 4), 0, 0]),
             E::UnsupportedVersion {
                 found: 3,
-                supported: 4,
+                supported: PROTOCOL_VERSION,
             },
         ),
         ("kind 0", frame(0, 0, 0, &[]), E::UnknownKind { kind: 0 }),
-        ("kind 10", frame(10, 0, 0, &[]), E::UnknownKind { kind: 10 }),
+        ("kind 11", frame(11, 0, 0, &[]), E::UnknownKind { kind: 11 }),
         (
             "kind 0xffff",
             frame(0xFFFF, 0, 0, &[]),

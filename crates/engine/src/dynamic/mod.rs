@@ -92,6 +92,14 @@ impl Dynamics {
         self.version
     }
 
+    /// How long an answer culled now stays right without a new version: unbounded
+    /// (`None`) while no object declares a motion, else the horizon its test boxes are
+    /// swept over, seconds.
+    pub fn answers_hold_s(&self) -> Option<f32> {
+        let moving = self.placements.iter().flatten().any(Placement::has_motion);
+        moving.then_some(self.horizon_s)
+    }
+
     /// Checks `req` whole (at most `max_objects` objects) and applies it: the next
     /// version, or an error and no change at all.
     pub fn apply(

@@ -11,8 +11,12 @@ use homcull_proto::frame::{
 use std::time::Instant;
 
 use super::Pending;
+use crate::motion::HeldSet;
+use crate::state::SceneEntry;
+use homcull_engine::camera::Camera;
 use homcull_engine::camera::stereo;
 use homcull_engine::cull::PoseResult;
+use homcull_engine::cull::union;
 
 /// A visible set and, on a stream that asked for them, the level of detail of each ID.
 #[derive(Debug, Clone, Copy)]
@@ -114,14 +118,14 @@ pub(super) fn parse_text(text: &str) -> Result<Pending, ErrorFrame> {
     let m: PoseMessage = serde_json::from_str(text)
         .map_err(|e| bad(ErrorCode::MalformedFrame, format!("pose message: {e}")))?;
     // A region answer costs the cull worker far more than a point pose, and a stream
-    // sends a pose a frame: regions are asked over REST, where the work budget
-    // weighs them, until the stream answers a region once for many poses.
+    // sends a pose a frame: a stream takes its region once, in its query
+    // (`?region_m=`, `region`), and culls once per region, not per pose.
     if m.pose.region.is_some() {
         return Err(ErrorFrame {
             ack: m.seq,
             ..bad(
                 ErrorCode::InvalidPose,
-                "region: streams take no region yet; ask POST …/cull for one".into(),
+                "region: a stream takes its region from ?region_m=&turn_deg=, not per pose".into(),
             )
         });
     }
@@ -219,4 +223,44 @@ mod tests {
             Frame::Full(f) if f.ids == [2, 3]
         ));
     }
+}
+
+/// The set to stream from the culls of a pose's `eyes` (the first results) and its
+/// lookahead (if any): their union plus the held objects. Objects streamed outside
+/// every eye's frustum count as candidates, so that candidates − visible (what clients
+/// show as culled by occlusion) stays what it says. Without smoothing this is the
+/// pose's own answer (for a stereo pose, its eyes' union).
+pub(super) fn smoothed(
+    mut results: Vec<PoseResult>,
+    held: &mut HeldSet,
+    eyes: &[Camera],
+    scene: &SceneEntry,
+) -> PoseResult {
+    let lookahead = results.split_off(eyes.len());
+    let mut r = PoseResult::union_of(results).expect("one result per eye");
+    let it = lookahead.into_iter();
+    if it.len() == 0 && !held.holds() {
+        return r;
+    }
+    let culled = r.visible.clone();
+    for other in it {
+        r.visible = union(&r.visible, &other.visible);
+    }
+    r.visible = held.update(Instant::now(), std::mem::take(&mut r.visible));
+    if r.visible.len() != culled.len() {
+        let placed = scene.placements();
+        let outside = r
+            .visible
+            .iter()
+            .filter(|id| culled.binary_search(id).is_err())
+            .filter(|&&id| {
+                let b = placed.bounds(id);
+                !eyes.iter().any(|cam| cam.intersects(&b))
+            })
+            .count() as u32;
+        r.stats.candidates += outside;
+        r.stats.culled_by_frustum = r.stats.culled_by_frustum.saturating_sub(outside);
+        r.stats.culled_by_occlusion = r.stats.candidates.saturating_sub(r.visible.len() as u32);
+    }
+    r
 }

@@ -14,7 +14,9 @@
 //! Options in the query string: `method`, `threshold`, `deb` as for `POST /cull`, and the
 //! opt-in smoothing `lookahead_ms` and `hold_ms` ([`super::motion`]), which stream a
 //! superset of the pose's cull, and `placements=true`: JSON text messages saying where
-//! moved objects are ([`placements`]). A stream may also move objects ([`writer`]).
+//! moved objects are ([`placements`]); `region_m` and `turn_deg` make it a region
+//! stream, which culls once per region and answers the poses inside it without a
+//! cull ([`region`]). A stream may also move objects ([`writer`]).
 //!
 //! A client that stops reading is dropped within the send timeout, not when the kernel's
 //! buffers fill: the sender pings it every quarter of the timeout, and a ping left
@@ -27,6 +29,8 @@
 mod frames;
 mod liveness;
 mod placements;
+mod region;
+mod sink;
 mod writer;
 
 use std::sync::Arc;
@@ -44,8 +48,9 @@ use homcull_proto::{CullOptions, CullOptionsQuery, PROTOCOL_VERSION, Pose, Surfa
 use serde::Deserialize;
 use tokio::sync::{Mutex, Notify, mpsc};
 
-use frames::{Sent, frame_stats, parse_frame, parse_text, visibility_frame};
+use frames::{Sent, frame_stats, parse_frame, parse_text, smoothed, visibility_frame};
 use liveness::{Liveness, Tick};
+use sink::{send, send_text};
 
 use super::error::ApiError;
 use super::listen::{AddressSlot, ConnectionSlot};
@@ -53,8 +58,6 @@ use super::motion::{HeldSet, MAX_HOLD_MS, MAX_LOOKAHEAD_MS, MotionEstimator, mov
 use super::state::{AppState, SceneEntry, WsClientSlot};
 use homcull_engine::camera::Camera;
 use homcull_engine::camera::stereo;
-use homcull_engine::cull::PoseResult;
-use homcull_engine::cull::union;
 use homcull_engine::lod;
 
 /// Largest message a client may send (a pose frame is 68 bytes).
@@ -81,6 +84,14 @@ pub struct StreamQuery {
     /// Before a frame, a JSON text message with the scene version it was culled at and
     /// where its moved objects are, when either changed (default false).
     pub placements: Option<bool>,
+    /// Cull once per region instead of once per pose: every eye within this many
+    /// metres of the region's centre (0 < r ≤ 5). Each region is announced with a region
+    /// frame before its set; poses that stay inside get empty deltas. Mono poses only;
+    /// no smoothing.
+    pub region_m: Option<f32>,
+    /// With `region_m`: view directions within this many degrees of the pose's (0–45,
+    /// default 0).
+    pub turn_deg: Option<f32>,
 }
 
 /// A stream's other choices: occluders seen first, placements told, and whether it
@@ -90,6 +101,7 @@ struct Choices {
     seen_first: bool,
     placements: bool,
     may_write: bool,
+    region: Option<region::RegionSpec>,
 }
 
 /// How a stream shapes its sets (see [`super::motion`]); both off by default, when the
@@ -135,7 +147,16 @@ pub async fn stream(
             ),
         ));
     }
+    let region = region::RegionSpec::of(q.region_m, q.turn_deg)
+        .map_err(|e| ApiError::bad_request("invalid_options", e))?;
+    if region.is_some() && (smoothing.lookahead_ms != 0 || smoothing.hold_ms != 0) {
+        return Err(ApiError::bad_request(
+            "invalid_options",
+            "a region stream takes no lookahead_ms or hold_ms: its sets hold for the region",
+        ));
+    }
     let choices = Choices {
+        region,
         seen_first: q.seen_first.unwrap_or(false),
         placements: q.placements.unwrap_or(false),
         may_write: super::guard::check_token(&state, &headers).is_ok(),
@@ -204,8 +225,6 @@ impl Mailbox {
     }
 }
 
-type Sink = futures_util::stream::SplitSink<WebSocket, Message>;
-
 async fn client(
     socket: WebSocket,
     state: AppState,
@@ -237,6 +256,7 @@ async fn client(
             "smoothing": smoothing,
             "seen_first": seen_first,
             "placements": choices.placements,
+            "region": choices.region,
             "full_every": state.config.full_every,
             "max_fps": state.config.ws_max_fps,
         })
@@ -341,6 +361,8 @@ async fn client(
     let mut last_levels: Option<Vec<u8>> = None;
     let mut held = HeldSet::new(Duration::from_millis(smoothing.hold_ms.into()));
     let mut since_full = u32::MAX;
+    // On a region stream: the region whose set the client holds.
+    let mut held_region: Option<region::Held> = None;
     let mut shutdown = state.shutdown.clone();
     let mut reader = reader;
     let mut incoming_left = None;
@@ -395,7 +417,52 @@ async fn client(
         let Some(p) = mailbox.take() else { continue };
         let started = Instant::now();
         last_started = Some(started);
-        let mut cams = p.eyes.clone();
+        // A region stream answers a pose inside the held region without a cull.
+        let version = scene.placements().version();
+        if let Some(h) = held_region
+            .as_ref()
+            .filter(|h| h.holds(&p, version, started))
+        {
+            seq = counter.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
+            let dropped = mailbox.dropped.swap(0, Ordering::Relaxed);
+            let held = Sent {
+                ids: &last_set,
+                levels: last_levels.as_deref(),
+            };
+            let want_full = p.want_full || since_full >= state.config.full_every;
+            let frame = h.answer((seq, p.seq), dropped, started, held, want_full);
+            since_full = if matches!(frame, Frame::Full(_)) {
+                0
+            } else {
+                since_full + 1
+            };
+            if send(&sink, frame, send_timeout).await.is_err() {
+                break None;
+            }
+            continue;
+        }
+        let asked = match choices.region.map(|spec| spec.pose(&p)) {
+            None => None,
+            Some(Some(asked)) => Camera::new(&asked).ok().map(|cam| (asked, cam)),
+            Some(None) => {
+                seq = counter.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
+                let refused = Frame::Error(ErrorFrame {
+                    seq,
+                    ack: p.seq,
+                    code: ErrorCode::InvalidPose,
+                    message: "stereo: a region stream takes mono poses".into(),
+                });
+                if send(&sink, refused, send_timeout).await.is_err() {
+                    break None;
+                }
+                continue;
+            }
+        };
+        let mut cams = match &asked {
+            Some((_, cam)) => vec![cam.clone()],
+            None => p.eyes.clone(),
+        };
+        let eyes = cams.clone();
         let ahead = p.velocity * (smoothing.lookahead_ms as f32 * 1e-3);
         if ahead != Vec3::ZERO {
             // The pose was valid, so the moved one is too unless it left f32 range.
@@ -408,7 +475,7 @@ async fn client(
             .worker
             .cull_preferring(scene.engine.clone(), cams, options, prefer)
             .await
-            .map(|results| smoothed(results, &mut held, &p.eyes, &scene));
+            .map(|results| smoothed(results, &mut held, &eyes, &scene));
         seq = counter.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
         let frame = match answer {
             Err(e) => Frame::Error(ErrorFrame {
@@ -431,6 +498,30 @@ async fn client(
                     break None;
                 }
                 let stats = frame_stats(&r, mailbox.dropped.swap(0, Ordering::Relaxed), started);
+                if let Some((asked, _)) = &asked {
+                    // The region goes out before its set.
+                    seq = counter.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
+                    let hold = scene
+                        .placements()
+                        .answers_hold_s()
+                        .map(Duration::from_secs_f32);
+                    let mut h = region::Held::new(
+                        (seq, p.seq),
+                        asked,
+                        &p.eyes[0],
+                        r.stats.scene_version,
+                        hold,
+                    );
+                    h.stats = stats;
+                    if send(&sink, Frame::Region(h.frame), send_timeout)
+                        .await
+                        .is_err()
+                    {
+                        break None;
+                    }
+                    held_region = Some(h);
+                    seq = counter.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
+                }
                 let want_full = p.want_full || since_full >= state.config.full_every;
                 let levels = options.lod.map(|t| {
                     let placed = scene.placements();
@@ -503,78 +594,6 @@ impl ReaderEnd {
             ReaderEnd::Idle => Some((1008, "idle for too long")),
             ReaderEnd::TooLong => Some((1009, "message too big")),
             ReaderEnd::TooManyBad => Some((1008, "too many malformed messages")),
-        }
-    }
-}
-
-/// The set to stream from the culls of a pose's `eyes` (the first results) and its
-/// lookahead (if any): their union plus the held objects. Objects streamed outside
-/// every eye's frustum count as candidates, so that candidates − visible (what clients
-/// show as culled by occlusion) stays what it says. Without smoothing this is the
-/// pose's own answer (for a stereo pose, its eyes' union).
-fn smoothed(
-    mut results: Vec<PoseResult>,
-    held: &mut HeldSet,
-    eyes: &[Camera],
-    scene: &SceneEntry,
-) -> PoseResult {
-    let lookahead = results.split_off(eyes.len());
-    let mut r = PoseResult::union_of(results).expect("one result per eye");
-    let it = lookahead.into_iter();
-    if it.len() == 0 && !held.holds() {
-        return r;
-    }
-    let culled = r.visible.clone();
-    for other in it {
-        r.visible = union(&r.visible, &other.visible);
-    }
-    r.visible = held.update(Instant::now(), std::mem::take(&mut r.visible));
-    if r.visible.len() != culled.len() {
-        let placed = scene.placements();
-        let outside = r
-            .visible
-            .iter()
-            .filter(|id| culled.binary_search(id).is_err())
-            .filter(|&&id| {
-                let b = placed.bounds(id);
-                !eyes.iter().any(|cam| cam.intersects(&b))
-            })
-            .count() as u32;
-        r.stats.candidates += outside;
-        r.stats.culled_by_frustum = r.stats.culled_by_frustum.saturating_sub(outside);
-        r.stats.culled_by_occlusion = r.stats.candidates.saturating_sub(r.visible.len() as u32);
-    }
-    r
-}
-
-async fn send(sink: &Mutex<Sink>, frame: Frame, timeout: Duration) -> Result<(), ()> {
-    let bytes = frame.encode();
-    let kind = frame.kind().name();
-    metrics::counter!("homcull_ws_frames_total", "kind" => kind).increment(1);
-    metrics::counter!("homcull_ws_frame_bytes_total", "kind" => kind).increment(bytes.len() as u64);
-    send_message(sink, Message::Binary(bytes.into()), timeout).await
-}
-
-/// A text message ([`placements`], [`writer`]'s replies) of `kind`.
-async fn send_text(
-    sink: &Mutex<Sink>,
-    kind: &'static str,
-    text: String,
-    timeout: Duration,
-) -> Result<(), ()> {
-    metrics::counter!("homcull_ws_frames_total", "kind" => kind).increment(1);
-    metrics::counter!("homcull_ws_frame_bytes_total", "kind" => kind).increment(text.len() as u64);
-    send_message(sink, Message::Text(text.into()), timeout).await
-}
-
-async fn send_message(sink: &Mutex<Sink>, message: Message, timeout: Duration) -> Result<(), ()> {
-    let mut s = sink.lock().await;
-    match tokio::time::timeout(timeout, s.send(message)).await {
-        Ok(Ok(())) => Ok(()),
-        Ok(Err(_)) => Err(()),
-        Err(_) => {
-            tracing::info!("a WebSocket client stopped reading; dropping it");
-            Err(())
         }
     }
 }
