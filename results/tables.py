@@ -9,7 +9,7 @@ Each generated table sits between two marker lines in its document,
   exact oracle, frustum-only culling and Intel's Masked Occlusion Culling (MOC).
 - `methods` (README.md): one figure per method, munich in the native run.
 - `native` (docs/performance.md): every scene of the native run, every method.
-- `pose_time`, `stereo`, `dynamic`, `server`, `deltas` (docs/performance.md) and
+- `pose_time`, `stereo`, `dynamic`, `server`, `deltas`, `walk` (docs/performance.md) and
   `masked` (docs/experiments.md): the parts of the run `EXTRA_RUN`, one folder each.
 
 Usage: `python3 results/tables.py` rewrites the tables; `--check` exits 1 when a
@@ -30,6 +30,8 @@ MOC_RUN = "2026-12-02-moc-epyc"
 HEADLINE_SCENES = ["munich", "etoile", "oa_shouse", "oa_dm1"]
 # The run of the smaller figures docs/ quotes (bench, examples, loadgen).
 EXTRA_RUN = "2026-12-07-xeon-2core"
+# Region answers and region streams.
+REGION_RUN = "2026-12-07-epyc-2core"
 UNITS_MS = {"ns": 1e-6, "µs": 1e-3, "us": 1e-3, "ms": 1.0, "s": 1e3}
 
 
@@ -333,6 +335,39 @@ def deltas_table():
     return "\n".join(out) + "\n"
 
 
+def walk_table():
+    """`homcull loadgen --mode walk`: region streams beside point streams, delayed."""
+    run = RESULTS / REGION_RUN / "walk"
+    rows = [json.loads(line) for line in (run / "walk.jsonl").read_text().splitlines() if line]
+    names = {
+        "": "point",
+        "?lookahead_ms=150&hold_ms=300": "point, smoothed (150 ms ahead, 300 ms hold)",
+    }
+    out = [
+        "`homcull loadgen --mode walk --seconds 4` against `homcull serve --backend cpu` on "
+        "loopback: the demo street at 1.4 m/s, the view swinging up to 30°/s, 60 frames/s "
+        "at 960×540, each message delayed each way; every drawn frame checked against the "
+        f"exact oracle at its pose ({(run / 'machine.txt').read_text().strip()}, "
+        f"[`results/{REGION_RUN}/walk/`](../results/{REGION_RUN}/walk/), `run.sh walk`).",
+        "",
+        "| stream | delay each way, ms | late objects per s | frames outside their region | culls per s | objects held ÷ seen |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        q = r["query"]
+        name = names.get(q)
+        if name is None:
+            m = re.match(r"\?region_m=([0-9.]+)&turn_deg=([0-9.]+)$", q)
+            name = f"region {m.group(1)} m, {m.group(2)}°" if m else q
+        counted = r["frames"] - r["waiting"]
+        outside = f"{r['outside_region']} of {counted}" if q.startswith("?region") else "—"
+        out.append(
+            f"| {name} | {r['delay_ms']} | {r['late_per_s']:.1f} | {outside} "
+            f"| {r['culls_per_s']:.2f} | {r['held_over_seen']:.1f} |"
+        )
+    return "\n".join(out) + "\n"
+
+
 def masked_table():
     """`cargo run --release --features experimental --example masked_vs_per_pixel`."""
     run = RESULTS / EXTRA_RUN / "masked"
@@ -374,6 +409,7 @@ def main():
         (REPO / "docs" / "performance.md", "dynamic", dynamic_table()),
         (REPO / "docs" / "performance.md", "server", server_table()),
         (REPO / "docs" / "performance.md", "deltas", deltas_table()),
+        (REPO / "docs" / "performance.md", "walk", walk_table()),
         (REPO / "docs" / "experiments.md", "masked", masked_table()),
     ]
     stale = []

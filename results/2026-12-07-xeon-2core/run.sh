@@ -7,7 +7,7 @@
 #   bash results/2026-12-07-xeon-2core/run.sh [PART...]   (default: all parts)
 set -euo pipefail
 out=$(cd "$(dirname "$0")" && pwd)
-parts=("$@"); [ ${#parts[@]} -gt 0 ] || parts=(dynamic street_deltas memory masked server region)
+parts=("$@"); [ ${#parts[@]} -gt 0 ] || parts=(dynamic street_deltas memory masked server)
 bin=target/release/homcull
 machine="$(nproc)-core $(lscpu | sed -n 's/^Model name: *//p' | head -1) VM"
 # cargo's "Compiling … (path)" lines would name this machine's checkout.
@@ -43,8 +43,6 @@ for part in "${parts[@]}"; do
       "$bin" loadgen --url "$url" --mode ws --clients 32 --seconds 8 --transforms-per-s 10000 --json \
         > "$out/server/ws32_transforms10k.json"
       kill "$pid"; wait "$pid" || true; trap - EXIT ;;
-    region)
-      cargo bench --bench region 2>&1 | grep -v 'item/s' | quiet > "$out/region/bench.txt" ;;
     *) echo "unknown part: $part" >&2; exit 2 ;;
   esac
 done

@@ -81,6 +81,19 @@ pub fn loadgen(a: LoadgenArgs) -> Result<()> {
         .enable_all()
         .build()
         .context("starting the async runtime")?;
+    if a.mode == "walk" {
+        let cfg = crate::eval::latency::WalkConfig {
+            host: crate::eval::loadgen::loopback(&a.url)?,
+            scene: a.scene.clone(),
+            seconds: a.seconds as f32,
+            delay_ms: a.delay_ms,
+            query: a.stream_query.clone(),
+            viewport: [960, 540],
+        };
+        let report = rt.block_on(crate::eval::latency::walk(&cfg))?;
+        println!("{}", serde_json::to_string(&report)?);
+        return Ok(());
+    }
     let report = rt.block_on(crate::eval::loadgen::run(&a.config()))?;
     if a.json {
         println!("{}", serde_json::to_string(&report)?);

@@ -146,3 +146,38 @@ async fn bad_region_streams_are_refused_and_stereo_poses_get_an_error_frame() {
     assert_eq!(t.apply(&next_frame(&mut ws).await), 2);
     srv.stop().await;
 }
+
+/// `homcull loadgen --mode walk` on a region stream: every drawn frame checked against
+/// the exact oracle, culls counted by region frames (far fewer than the 60 poses a
+/// second the client sends).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_delayed_walk_checks_every_frame_and_counts_region_culls() {
+    use homcull::eval::latency::{WalkConfig, walk};
+
+    let srv = TestServer::start(|_| {}).await;
+    let host = homcull::eval::loadgen::loopback(&srv.url("")).unwrap();
+    let cfg = |query: &str| WalkConfig {
+        host: host.clone(),
+        scene: "demo".into(),
+        seconds: 1.0,
+        delay_ms: 20,
+        query: query.into(),
+        viewport: [480, 270],
+    };
+    let region = walk(&cfg("?region_m=1&turn_deg=15")).await.unwrap();
+    let point = walk(&cfg("")).await.unwrap();
+    eprintln!("{region:?}\n{point:?}");
+    for r in [&region, &point] {
+        assert_eq!(r.frames, 60);
+        assert!(r.waiting < r.frames, "{r:?}: an answer arrived");
+    }
+    assert!(
+        region.held_over_seen > 1.0,
+        "{region:?}: region sets hold more"
+    );
+    assert!(
+        region.culls_per_s * 3.0 < point.culls_per_s,
+        "a region stream culls far less often: {region:?} against {point:?}"
+    );
+    srv.stop().await;
+}

@@ -5,6 +5,7 @@
 
 pub mod animate;
 pub mod compare;
+pub mod latency;
 pub mod loadgen;
 pub mod loss;
 pub mod percentiles;

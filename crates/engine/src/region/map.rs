@@ -311,7 +311,7 @@ impl RegionMap {
             if !beyond(z_lo, self.min_depth) {
                 return Verdict::NearOccluder;
             }
-            let (kx, ky) = self.dilation(z_lo);
+            let (kx, ky) = self.dilation(z_lo, [x0, x1, y0, y1]);
             let Some(n) = self.cells(x0, x1, y0, y1, kx, ky) else {
                 return Verdict::OffMap; // the dilated image leaves the map
             };
@@ -339,17 +339,27 @@ impl RegionMap {
         )
     }
 
-    /// The dilation in pixels `(x, y)` of a box's image that holds every direction of
-    /// a segment from an eye of the ball to the box, past view depth `z_lo`: `r/z_lo`
-    /// times `√(1 + t²)` in tangent units, `t` the largest tangent on the map.
-    fn dilation(&self, z_lo: f32) -> (f32, f32) {
-        let (tx, ty) = (1.0 / self.cam.scale[0], 1.0 / self.cam.scale[1]);
-        let a = self.radius / z_lo;
+    /// The dilation in pixels `(x, y)` of a box's image `[x0, x1] × [y0, y1]` (pixels)
+    /// that holds every direction of a segment from an eye of the ball to the box, past
+    /// view depth `z_lo`: `r·√(1 + t²)/z_lo` in tangent units on each axis, `t` the
+    /// largest tangent of the box's image on it. (A point within `r` of a ray point at
+    /// tangent `t`, beyond `z_lo`, has a tangent within that of `t`: `(ΔX − t·ΔZ)/Z'`
+    /// with `|(ΔX, ΔZ)| ≤ r` and `Z' ≥ z_lo`; the rays to the box have the tangents
+    /// of its image.)
+    fn dilation(&self, z_lo: f32, [x0, x1, y0, y1]: [f32; 4]) -> (f32, f32) {
         let per_x = self.cam.scale[0] * 0.5 * self.w as f32;
         let per_y = self.cam.scale[1] * 0.5 * self.h as f32;
+        // Pixels back to tangents (`to_pixels` inverted), the larger magnitude.
+        let tx = ((x0 / self.w as f32 - 0.5).abs()).max((x1 / self.w as f32 - 0.5).abs()) * 2.0
+            / self.cam.scale[0];
+        let ty = ((0.5 - y0 / self.h as f32).abs()).max((0.5 - y1 / self.h as f32).abs()) * 2.0
+            / self.cam.scale[1];
+        let a = self.radius / z_lo;
+        // A little more for the f32 round trip through pixels.
+        let slack = 1.0 + 1e-4;
         (
-            a * (1.0 + tx * tx).sqrt() * per_x,
-            a * (1.0 + ty * ty).sqrt() * per_y,
+            a * (1.0 + tx * tx).sqrt() * per_x * slack,
+            a * (1.0 + ty * ty).sqrt() * per_y * slack,
         )
     }
 

@@ -13,7 +13,7 @@
 //! `ζ`, and follow the segment from `q` to `z`: where its view depth has passed
 //! `z_lo`, every point of it lies within `r` of the ray from `p` to `z`, so its
 //! direction stays in the box's image dilated by `r·√(1+t²)/z_lo` in tangent units
-//! (`N`). Suppose, over `N`, that every direction is covered, `D ≥ z_lo > r`, and `D`
+//! on each axis, `t` the largest tangent of the box's image there (`N`). Suppose, over `N`, that every direction is covered, `D ≥ z_lo > r`, and `D`
 //! is continuous; and that `ζ > D` over the box's own image. Then `g = depth − D`
 //! along the segment goes from `≤ 0` (at depth `z_lo`) to `> 0` (at `z`) without a
 //! jump, so it is `0` somewhere before `z`: the segment meets a drawn occluder
@@ -53,7 +53,12 @@ use crate::cull::{CullSettings, Passes, PoseResult, PreparedScene, select_occlud
 pub use map::{RegionMap, Verdict};
 
 /// Widest half-angle (degrees) of one planar map; wider views use the cube's six.
-const MAX_MAP_HALF_DEG: f32 = 60.0;
+/// (A box's dilation grows with the tangents of its own image only, so a wide map
+/// costs cells at its borders, not tightness at its centre.)
+const MAX_MAP_HALF_DEG: f32 = 75.0;
+/// Half-angle (degrees) of each face of the cube: wider than 45° so that a box near a
+/// face's border fits in one of them.
+const CUBE_FACE_HALF_DEG: f32 = 60.0;
 /// Margin around the view in each map, degrees: room for the dilation at its border.
 const MAP_MARGIN_DEG: f32 = 3.0;
 /// The least cell of a map, degrees at its centre. The answer holds at any cell
@@ -286,6 +291,9 @@ pub fn map_cameras(cam: &Camera, region: &Region) -> Vec<Camera> {
     ];
     faces
         .iter()
-        .map(|&(f, up)| camera(look_at_rh(centre, centre + f, up), limit, limit))
+        .map(|&(f, up)| {
+            let half = CUBE_FACE_HALF_DEG.to_radians();
+            camera(look_at_rh(centre, centre + f, up), half, half)
+        })
         .collect()
 }
