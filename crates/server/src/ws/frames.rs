@@ -142,6 +142,46 @@ pub(super) fn parse_text(text: &str) -> Result<Pending, ErrorFrame> {
     })
 }
 
+/// The set to stream from the culls of a pose's `eyes` (the first results) and its
+/// lookahead (if any): their union plus the held objects. Objects streamed outside
+/// every eye's frustum count as candidates, so that candidates − visible (what clients
+/// show as culled by occlusion) stays what it says. Without smoothing this is the
+/// pose's own answer (for a stereo pose, its eyes' union).
+pub(super) fn smoothed(
+    mut results: Vec<PoseResult>,
+    held: &mut HeldSet,
+    eyes: &[Camera],
+    scene: &SceneEntry,
+) -> PoseResult {
+    let lookahead = results.split_off(eyes.len());
+    let mut r = PoseResult::union_of(results).expect("one result per eye");
+    let it = lookahead.into_iter();
+    if it.len() == 0 && !held.holds() {
+        return r;
+    }
+    let culled = r.visible.clone();
+    for other in it {
+        r.visible = union(&r.visible, &other.visible);
+    }
+    r.visible = held.update(Instant::now(), std::mem::take(&mut r.visible));
+    if r.visible.len() != culled.len() {
+        let placed = scene.placements();
+        let outside = r
+            .visible
+            .iter()
+            .filter(|id| culled.binary_search(id).is_err())
+            .filter(|&&id| {
+                let b = placed.bounds(id);
+                !eyes.iter().any(|cam| cam.intersects(&b))
+            })
+            .count() as u32;
+        r.stats.candidates += outside;
+        r.stats.culled_by_frustum = r.stats.culled_by_frustum.saturating_sub(outside);
+        r.stats.culled_by_occlusion = r.stats.candidates.saturating_sub(r.visible.len() as u32);
+    }
+    r
+}
+
 #[cfg(test)]
 #[allow(
     clippy::wildcard_enum_match_arm,
@@ -223,44 +263,4 @@ mod tests {
             Frame::Full(f) if f.ids == [2, 3]
         ));
     }
-}
-
-/// The set to stream from the culls of a pose's `eyes` (the first results) and its
-/// lookahead (if any): their union plus the held objects. Objects streamed outside
-/// every eye's frustum count as candidates, so that candidates − visible (what clients
-/// show as culled by occlusion) stays what it says. Without smoothing this is the
-/// pose's own answer (for a stereo pose, its eyes' union).
-pub(super) fn smoothed(
-    mut results: Vec<PoseResult>,
-    held: &mut HeldSet,
-    eyes: &[Camera],
-    scene: &SceneEntry,
-) -> PoseResult {
-    let lookahead = results.split_off(eyes.len());
-    let mut r = PoseResult::union_of(results).expect("one result per eye");
-    let it = lookahead.into_iter();
-    if it.len() == 0 && !held.holds() {
-        return r;
-    }
-    let culled = r.visible.clone();
-    for other in it {
-        r.visible = union(&r.visible, &other.visible);
-    }
-    r.visible = held.update(Instant::now(), std::mem::take(&mut r.visible));
-    if r.visible.len() != culled.len() {
-        let placed = scene.placements();
-        let outside = r
-            .visible
-            .iter()
-            .filter(|id| culled.binary_search(id).is_err())
-            .filter(|&&id| {
-                let b = placed.bounds(id);
-                !eyes.iter().any(|cam| cam.intersects(&b))
-            })
-            .count() as u32;
-        r.stats.candidates += outside;
-        r.stats.culled_by_frustum = r.stats.culled_by_frustum.saturating_sub(outside);
-        r.stats.culled_by_occlusion = r.stats.candidates.saturating_sub(r.visible.len() as u32);
-    }
-    r
 }
