@@ -321,17 +321,18 @@ class WebSocket:
 # runs.
 
 MAGIC = 0x4C434D48
-VERSIONS = (1, 2, 3, 4)
-HELLO, POSE, FULL, DELTA, ERROR, FULL_LOD, DELTA_LOD, TRANSFORMS, APPLIED = range(1, 10)
+VERSIONS = (1, 2, 3, 4, 5)
+HELLO, POSE, FULL, DELTA, ERROR, FULL_LOD, DELTA_LOD, TRANSFORMS, APPLIED, REGION = range(1, 11)
 KIND_NAMES = {HELLO: "hello", POSE: "pose", FULL: "full", DELTA: "delta", ERROR: "error",
               FULL_LOD: "full_lod", DELTA_LOD: "delta_lod", TRANSFORMS: "transforms",
-              APPLIED: "applied"}
+              APPLIED: "applied", REGION: "region"}
 STATS = {
     1: ("objects", "candidates", "culled_by_frustum", "culled_by_occlusion", "occluders_used",
         "dropped_poses", "gpu_us", "total_us"),
     2: ("candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us"),
     3: ("candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us"),
     4: ("candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us", "scene_version"),
+    5: ("candidates", "occluders_used", "dropped_poses", "gpu_us", "total_us", "scene_version"),
 }
 GOLDEN = REPO / "proto" / "tests" / "golden"
 
@@ -428,6 +429,10 @@ def decode_frame(b: bytes) -> dict:
     elif kind == APPLIED:
         expect(n == 3, "applied frame length mismatch")
         f["version_made"], f["applied"] = w[0] | w[1] << 32, w[2]
+    elif kind == REGION:
+        expect(n == 8, "region frame length mismatch")
+        cx, cy, cz, r, ax, ay, az, t = struct.unpack_from("<8f", b, off)
+        f.update(centre=[cx, cy, cz], radius_m=r, axis=[ax, ay, az], turn_deg=t)
     else:
         raise Failed(f"unknown frame kind {kind}")
     return f
@@ -454,6 +459,9 @@ def check_codec() -> str:
             expect(f["ids"] == [o["id"] for o in g["objects"]], f"{where}: transforms ids {f['ids']}")
         if g["kind"] == "applied":
             expect((f["version_made"], f["applied"]) == (g["version"], g["applied"]), f"{where}: applied")
+        if g["kind"] == "region":
+            got = (f["centre"], f["radius_m"], f["axis"], f["turn_deg"])
+            expect(got == (g["centre"], g["radius_m"], g["axis"], g["turn_deg"]), f"{where}: region {got}")
         if g["kind"] == "pose":
             enc = pose_frame(g["seq"], g, g["want_full"], version)
             expect(enc == raw, f"{where}: encoding the pose gives {enc.hex()}, expected {raw.hex()}")
