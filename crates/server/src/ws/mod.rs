@@ -441,16 +441,16 @@ async fn client(
             }
             continue;
         }
-        let asked = match choices.region.map(|spec| spec.pose(&p)) {
-            None => None,
-            Some(Some(asked)) => Camera::new(&asked).ok().map(|cam| (asked, cam)),
-            Some(None) => {
+        // Refused, never culled as a point: the held region must match the held set.
+        let asked = match choices.region.map(|spec| spec.camera(&p)).transpose() {
+            Ok(asked) => asked,
+            Err(message) => {
                 seq = counter.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
                 let refused = Frame::Error(ErrorFrame {
                     seq,
                     ack: p.seq,
                     code: ErrorCode::InvalidPose,
-                    message: "stereo: a region stream takes mono poses".into(),
+                    message,
                 });
                 if send(&sink, refused, send_timeout).await.is_err() {
                     break None;

@@ -88,6 +88,18 @@ impl RegionSpec {
     }
 }
 
+impl RegionSpec {
+    /// The region pose for pose `p` ([`RegionSpec::pose`]) and its camera, or why it
+    /// cannot be culled.
+    pub(super) fn camera(&self, p: &Pending) -> Result<(Pose, Camera), String> {
+        let asked = self
+            .pose(p)
+            .ok_or_else(|| "stereo: a region stream takes mono poses".to_string())?;
+        let cam = Camera::new(&asked).map_err(|e| e.to_string())?;
+        Ok((asked, cam))
+    }
+}
+
 /// The region whose set the client holds, and what a pose must match to keep it.
 pub(super) struct Held {
     pub frame: RegionFrame,
