@@ -20,6 +20,10 @@ pub struct Region {
     pub centre: Vec3,
     /// Radius of the ball of eyes, metres.
     pub radius: f32,
+    /// Half extents of the box of eyes (a box region), inside the ball; a ball's
+    /// radius on every axis otherwise. A map bounds an eye's offset on each of its
+    /// axes by the lesser of the two.
+    pub half_extent: Vec3,
     /// Largest angle between a view direction and the pose's, radians.
     pub turn: f32,
     /// Every view direction.
@@ -34,7 +38,7 @@ impl Region {
         };
         let bad = |field: &'static str, why: String| PoseError::Region { field, why };
         let position = Vec3::from(pose.position);
-        let (centre, radius) = match (r.radius_m, r.bounds) {
+        let (centre, radius, half_extent) = match (r.radius_m, r.bounds) {
             (Some(_), Some(_)) => {
                 return Err(bad("region", "give radius_m or box, not both".into()));
             }
@@ -46,7 +50,7 @@ impl Region {
                         format!("must be in (0, {MAX_RADIUS_M}] metres, got {m}"),
                     ));
                 }
-                (position, m)
+                (position, m, Vec3::splat(m))
             }
             (None, Some([lo, hi])) => {
                 let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
@@ -70,7 +74,12 @@ impl Region {
                 }
                 // The ball around the centre that holds the box (never empty: a point
                 // box is a ball of a millimetre).
-                ((lo + hi) * 0.5, (diagonal * 0.5).max(1e-3))
+                let radius = (diagonal * 0.5).max(1e-3);
+                (
+                    (lo + hi) * 0.5,
+                    radius,
+                    ((hi - lo) * 0.5).max(Vec3::splat(1e-3)),
+                )
             }
         };
         let turn = match (r.turn_deg, r.all_directions) {
@@ -91,6 +100,7 @@ impl Region {
         Ok(Some(Region {
             centre,
             radius,
+            half_extent,
             turn,
             all_directions: r.all_directions,
         }))

@@ -15,9 +15,9 @@
 //! depth the dilation was computed for. Counts come from summed-area tables (exact),
 //! depth bounds from min/max pyramids (blocks covering the rect: conservative).
 
-use glam::Vec4Swizzles;
+use glam::{Vec3, Vec4Swizzles};
 
-use crate::camera::Camera;
+use crate::camera::{Camera, Region};
 use crate::cull::PreparedScene;
 use crate::geom::Aabb;
 use crate::scene::edges::{Hold, held};
@@ -35,6 +35,9 @@ const NONE: u32 = u32::MAX;
 pub struct RegionMap {
     cam: Camera,
     radius: f32,
+    /// Bounds on an eye's offset from the centre along the map's x, y and view axes
+    /// (a box region's extents turned into the map's frame; a ball's radius).
+    reach: Vec3,
     /// The nearest view depth a blocking point may have (see [`RegionMap::hides`]).
     min_depth: f32,
     w: usize,
@@ -81,21 +84,27 @@ struct Level {
 }
 
 impl RegionMap {
-    /// Draws the occluder objects `ids` from `cam` (at the region's centre) for a
-    /// ball of eyes of `radius` whose views see rays up to `off_axis` radians from
-    /// their axes.
+    /// Draws the occluder objects `ids` from `cam` (at the region's centre) for the
+    /// eyes of `region` whose views see rays up to `off_axis` radians from their
+    /// axes.
     pub fn draw(
         prep: &PreparedScene,
         cam: &Camera,
-        radius: f32,
+        region: &Region,
         off_axis: f32,
         ids: &[u32],
     ) -> Self {
         let scene = &prep.scene;
         let (w, h) = (cam.width as usize, cam.height as usize);
-        // z_lo lies beyond the ball, and far enough beyond it that the blocking point
-        // is beyond the near plane of every eye of the ball that looks at the box.
-        let min_depth = radius + cam.near / off_axis.min(85f32.to_radians()).cos() + 1e-3;
+        let radius = region.radius;
+        // The box's half extents on the map's axes: each view axis's reach over the
+        // box's corners (the rotation's absolute rows), never more than the ball.
+        let e = region.half_extent;
+        let axis = |k: usize| cam.view.row(k).truncate().abs().dot(e);
+        let reach = Vec3::new(axis(0), axis(1), axis(2)).min(Vec3::splat(radius));
+        // z_lo lies beyond every eye, and far enough beyond it that the blocking
+        // point is beyond the near plane of every eye that looks at the box.
+        let min_depth = reach.z + cam.near / off_axis.min(85f32.to_radians()).cos() + 1e-3;
         let neighbours = prep.edge_neighbours();
         // The drawn pieces, and for each drawn triangle (global index) its first
         // piece (`NONE`: not drawn).
@@ -220,6 +229,7 @@ impl RegionMap {
         RegionMap {
             min_depth,
             radius,
+            reach,
             w,
             h,
             lo: pyramid(w, h, lo, f32::min),
@@ -354,13 +364,15 @@ impl RegionMap {
             / self.cam.scale[0];
         let ty = ((0.5 - y0 / self.h as f32).abs()).max((0.5 - y1 / self.h as f32).abs()) * 2.0
             / self.cam.scale[1];
-        let a = self.radius / z_lo;
+        // The ball's bound, or the box's: `(|ΔX| + t·|ΔZ|)/Z'` with each offset
+        // within the box's reach on that axis, whichever is less.
+        let r = self.radius;
+        let (e, ez) = (self.reach, self.reach.z);
+        let bx = (r * (1.0 + tx * tx).sqrt()).min(e.x + tx * ez);
+        let by = (r * (1.0 + ty * ty).sqrt()).min(e.y + ty * ez);
         // A little more for the f32 round trip through pixels.
         let slack = 1.0 + 1e-4;
-        (
-            a * (1.0 + tx * tx).sqrt() * per_x * slack,
-            a * (1.0 + ty * ty).sqrt() * per_y * slack,
-        )
+        (bx / z_lo * per_x * slack, by / z_lo * per_y * slack)
     }
 
     /// The cells `[x0, x1] × [y0, y1]` (inclusive) that the closed pixel rect touches,

@@ -30,8 +30,11 @@
 //! Depth bounds per cell are conservative over the whole cell (not sampled at pixel
 //! centres), so the argument holds between samples too.
 //!
-//! A box region is culled as the ball around its centre that holds it; every
-//! direction (`all_directions`, or a turn too wide for one map) as six maps of a cube,
+//! A box region is culled from its centre with the ball that holds it, each bound
+//! taken from the box where that is less: on each of a map's axes an eye's offset is
+//! at most the box's extent there, so the dilation is `(e_x + t·e_z)/z_lo` (and
+//! `z_lo` must pass `e_z`, not `r`) when that is below the ball's. Every
+//! direction (`all_directions`, or a turn too wide for one map) takes six maps of a cube,
 //! any one of which may prove a box hidden (hiding does not depend on the direction
 //! looked in). The per-pixel refinement is not adapted to regions: region answers are
 //! the box test's. `exact` takes no region.
@@ -151,14 +154,30 @@ pub fn draw_maps(
     // The largest angle between an eye's axis and a ray it sees.
     let (tx, ty) = half_tangents(cam);
     let off_axis = tx.hypot(ty).atan() + region.turn;
-    map_cameras(cam, region)
-        .iter()
-        .map(|m| {
-            let chosen = select_occluders(prep, m, s, &[]);
-            RegionMap::draw(prep, m, region.radius, off_axis, &chosen.ids)
-        })
-        .collect()
+    let mut maps = Vec::new();
+    for m in map_cameras(cam, region) {
+        let chosen = select_occluders(prep, &m, s, &[]);
+        maps.push(RegionMap::draw(prep, &m, region, off_axis, &chosen.ids));
+        let large: Vec<u32> = chosen
+            .ids
+            .iter()
+            .copied()
+            .filter(|&id| {
+                let b = &prep.scene.objects[id as usize].aabb;
+                !b.is_empty() && (b.max - b.min).length() >= LARGE_OCCLUDER_M
+            })
+            .collect();
+        if !large.is_empty() && large.len() < chosen.ids.len() {
+            maps.push(RegionMap::draw(prep, &m, region, off_axis, &large));
+        }
+    }
+    maps
 }
+
+/// Objects at least this large (box diagonal, metres) are drawn again into a second
+/// map without the small ones: a box behind a wall whose image a tree's silhouette
+/// crosses is proven hidden by the wall alone.
+const LARGE_OCCLUDER_M: f32 = 10.0;
 
 /// Why object `id` is kept: the furthest verdict any map gives its first box that no
 /// map hides; `None` when every box in view is hidden by some map. A box outside
