@@ -107,6 +107,50 @@ pub struct CullArgs {
     pub lod_px: Option<String>,
 }
 
+/// How `homcull pvs` cuts a scene into view cells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CellsBy {
+    /// Columns of the walkable space, `--cell-m` a side.
+    Grid,
+    /// The vis clusters of a map that ships a PVS (the OpenArena maps).
+    Clusters,
+}
+
+#[derive(Debug, Args)]
+pub struct PvsArgs {
+    #[command(flatten)]
+    pub scene: SceneArg,
+    /// grid: columns of the walkable space that hold standing eyes, eye heights
+    /// 0.5–2.5 m; clusters: one cell per vis cluster of the map's own PVS.
+    #[arg(long, value_enum, default_value = "grid")]
+    pub cells: CellsBy,
+    /// Side of a grid column, and of the boxes a cell is covered by, metres (each box
+    /// is one region: smaller boxes are tighter near walls and slower).
+    #[arg(long, default_value_t = 2.0)]
+    pub cell_m: f32,
+    /// Only these clusters, comma-separated (with `--cells clusters`).
+    #[arg(long, value_delimiter = ',')]
+    pub clusters: Option<Vec<i32>>,
+    /// Viewport whose pixels, with `--fov-y-deg`, fix the maps' angular cell
+    /// (coarser cells are faster and keep more).
+    #[arg(long, default_value = "960x540", value_parser = parse_viewport)]
+    pub viewport: [u32; 2],
+    /// Vertical field of view, degrees.
+    #[arg(long, default_value_t = 60.0)]
+    pub fov_y_deg: f32,
+    /// hom, hzb or frustum (`exact` answers no region).
+    #[arg(long, default_value_t = cli_default().method)]
+    pub method: Method,
+    #[command(flatten)]
+    pub params: CullParams,
+    /// Threads answering boxes in parallel; 0 = one per core.
+    #[arg(long, env = "HOMCULL_THREADS", default_value_t = 0)]
+    pub threads: usize,
+    /// Where the PVS is written (JSON, docs/pvs.md), replacing the file when done.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
 pub fn parse_viewport(s: &str) -> Result<[u32; 2], String> {
     let (w, h) = s
         .split_once(['x', 'X'])

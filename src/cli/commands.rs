@@ -3,7 +3,7 @@
 
 use clap::{Parser, Subcommand};
 
-use super::args::{CullArgs, HealthcheckArgs, ServeArgs};
+use super::args::{CullArgs, HealthcheckArgs, PvsArgs, ServeArgs};
 #[cfg(feature = "eval")]
 use super::eval_args::{AnimateArgs, EvalArgs, LoadgenArgs, ReportArgs};
 
@@ -36,6 +36,8 @@ pub enum Command {
     Animate(AnimateArgs),
     /// Cull one pose and print the visible IDs and stats as JSON.
     Cull(CullArgs),
+    /// Precompute a view-cell PVS: the objects visible from anywhere in each cell.
+    Pvs(PvsArgs),
     #[cfg(feature = "eval")]
     /// Run every method and the exact oracle on the same poses and report quality and speed.
     Eval(EvalArgs),

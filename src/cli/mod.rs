@@ -12,6 +12,7 @@ pub mod eval;
 pub mod eval_args;
 pub mod flags_table;
 pub mod healthcheck;
+pub mod pvs;
 pub mod serve;
 
 use anyhow::{Context, Result};
@@ -29,6 +30,7 @@ pub fn run() -> Result<()> {
         Some(Command::Serve(a)) => serve::run(a),
         Some(Command::Healthcheck(a)) => healthcheck(a),
         Some(Command::Cull(a)) => cull::run(a),
+        Some(Command::Pvs(a)) => pvs::run(a),
         #[cfg(feature = "eval")]
         Some(Command::Loadgen(a)) => eval::loadgen(a),
         #[cfg(feature = "eval")]

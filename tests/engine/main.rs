@@ -19,3 +19,4 @@ mod pvs_oracle;
 mod real_scenes;
 mod region;
 mod stereo;
+mod viewcells;

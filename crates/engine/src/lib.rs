@@ -20,6 +20,8 @@
 //! - [`lod`]: level-of-detail hints from each visible object's size on screen.
 //! - [`pvs`], [`sampler`]: what a scene knows of its own playable space (the maps'
 //!   potentially-visible sets, street-level eyes), used to serve and to evaluate.
+//! - [`region`], [`viewcells`]: answers that hold for a region of eyes and view
+//!   directions, and the per-cell PVS precomputed from them.
 
 pub mod bvh;
 pub mod camera;
@@ -37,3 +39,4 @@ pub mod region;
 pub mod resident;
 pub mod sampler;
 pub mod scene;
+pub mod viewcells;

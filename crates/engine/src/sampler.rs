@@ -207,7 +207,7 @@ impl PoseSampler {
     }
 
     /// The eye above the lowest valid floor at (x, z), if any.
-    fn standing_eye_at(&self, x: f32, z: f32, accept: &dyn Fn(Vec3) -> bool) -> Option<Vec3> {
+    pub fn standing_eye_at(&self, x: f32, z: f32, accept: &dyn Fn(Vec3) -> bool) -> Option<Vec3> {
         self.floors_at(x, z).into_iter().find_map(|floor| {
             let eye = floor + Vec3::Y * EYE_HEIGHT;
             (self.has_headroom(floor) && self.is_in_open_space(eye) && accept(eye)).then_some(eye)

@@ -15,6 +15,7 @@
 use glam::Vec3;
 use serde_json::Value;
 
+use crate::geom::Aabb;
 use crate::scene::Scene;
 
 /// Most clusters accepted; real Quake III maps have a few thousand at most. Bounds the
@@ -144,6 +145,41 @@ impl Pvs {
             }
         }
         -1
+    }
+
+    /// The clusters of every leaf that box `b` may reach, ascending, solid left out:
+    /// the tree walked with the box, both ways where it straddles a plane. A superset
+    /// of the clusters of the points in `b` (a point's path is one of those walked);
+    /// empty when the box lies in solid only.
+    pub fn clusters_touching(&self, b: &Aabb) -> Vec<i32> {
+        let (centre, half) = (b.center(), b.extent() * 0.5);
+        let mut found = Vec::new();
+        let mut stack = vec![(0usize, 0usize)];
+        while let Some((node, depth)) = stack.pop() {
+            // Parsing rejected cycles; the depth bound only keeps this obviously finite.
+            let (Some(n), true) = (self.nodes.get(node), depth <= self.nodes.len()) else {
+                continue;
+            };
+            let Some(&(normal, d)) = self.planes.get(n.plane) else {
+                continue;
+            };
+            let (at, reach) = (normal.dot(centre) - d, normal.abs().dot(half));
+            let sides = [(n.front, at + reach >= 0.0), (n.back, at - reach < 0.0)];
+            for (child, reached) in sides {
+                match (child, reached) {
+                    (Child::Node(next), true) => stack.push((next, depth + 1)),
+                    (Child::Leaf(leaf), true) => {
+                        if let Some(&c) = self.leaf_cluster.get(leaf).filter(|&&c| c >= 0) {
+                            found.push(c);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        found.sort_unstable();
+        found.dedup();
+        found
     }
 
     /// Whether `object` may be visible from a camera in `cluster`. False from solid

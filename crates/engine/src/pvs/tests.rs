@@ -182,3 +182,20 @@ fn oa_dm1_probes_see_their_own_faces() {
     assert!(open_fraction > 0.9, "{open_fraction}");
     assert!(seen_fraction > 0.99, "{seen_fraction}");
 }
+
+#[test]
+fn a_box_reaches_the_clusters_of_the_leaves_it_straddles() {
+    let pvs = parse(tiny_extras(1)).unwrap();
+    let b = |x0: f32, x1: f32| Aabb::new(Vec3::new(x0, -1.0, -1.0), Vec3::new(x1, 1.0, 1.0));
+    assert_eq!(pvs.clusters_touching(&b(0.0, 2.0)), vec![0, 1]);
+    assert_eq!(pvs.clusters_touching(&b(1.5, 2.0)), vec![0]);
+    assert_eq!(
+        pvs.clusters_touching(&b(1.0, 2.0)),
+        vec![0],
+        "on the plane is front"
+    );
+    assert_eq!(pvs.clusters_touching(&b(-3.0, 0.5)), vec![1]);
+    let solid_behind = parse(tiny_extras(-1)).unwrap();
+    assert!(solid_behind.clusters_touching(&b(-3.0, 0.5)).is_empty());
+    assert_eq!(solid_behind.clusters_touching(&b(0.0, 2.0)), vec![0]);
+}
