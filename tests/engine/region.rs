@@ -8,6 +8,7 @@
 //! backend's exact ID buffer at each eye, its own pixel grid.
 
 use crate::common;
+use crate::common::Rng;
 
 use glam::{Quat, Vec3};
 use homcull::core::camera::Camera;
@@ -22,29 +23,6 @@ use homcull_proto::{DebVariant, Method, Pose, Region};
 const RADII: [f32; 4] = [0.1, 0.5, 1.0, 2.0];
 const TURNS: [f32; 3] = [0.0, 10.0, 30.0];
 const EYES: usize = 64;
-
-/// A small deterministic generator (xorshift), so that failures replay.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    /// A point of the unit ball: on its surface when `surface`.
-    fn in_ball(&mut self, surface: bool) -> Vec3 {
-        loop {
-            let v = Vec3::new(self.next(), self.next(), self.next()) * 2.0 - 1.0;
-            let l = v.length();
-            if l > 1e-3 && l <= 1.0 {
-                return if surface { v / l } else { v };
-            }
-        }
-    }
-}
 
 /// `n` eyes of the ball around `centre`: the centre, then points of its surface and
 /// of its interior, alternately.

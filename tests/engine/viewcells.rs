@@ -4,6 +4,7 @@
 //! it).
 
 use crate::common;
+use crate::common::Rng;
 
 use glam::Vec3;
 use homcull::core::camera::Camera;
@@ -12,6 +13,7 @@ use homcull::core::geom::Aabb;
 use homcull::core::native::NativeBackend;
 use homcull::core::occluders::OccluderParams;
 use homcull::core::pvs::Pvs;
+use homcull::core::region;
 use homcull::core::sampler::PoseSampler;
 use homcull::core::scene::{demo_city, load_path};
 use homcull::core::viewcells::{self, ViewCells};
@@ -20,18 +22,6 @@ use homcull_proto::{DebVariant, Method, Pose};
 /// Maps coarse enough to keep the test quick (0.37° cells); the answer holds at any.
 const VIEWPORT: [u32; 2] = [320, 180];
 const FOV_Y_DEG: f32 = 60.0;
-
-/// A small deterministic generator (xorshift), so that failures replay.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
 
 /// Eyes in box `b` (its centre, two opposite corners, random points) that `accept`
 /// takes, at most `n`, each looking along the six axes with a 90° view.
@@ -42,19 +32,11 @@ fn eye_cameras(rng: &mut Rng, b: &Aabb, n: usize, accept: &dyn Fn(Vec3) -> bool)
         let t = Vec3::new(rng.next(), rng.next(), rng.next());
         eyes.push(inset.min + (inset.max - inset.min) * t);
     }
-    let axes = [
-        (Vec3::X, Vec3::Y),
-        (Vec3::NEG_X, Vec3::Y),
-        (Vec3::Y, Vec3::Z),
-        (Vec3::NEG_Y, Vec3::Z),
-        (Vec3::Z, Vec3::Y),
-        (Vec3::NEG_Z, Vec3::Y),
-    ];
     eyes.into_iter()
         .filter(|&e| accept(e))
         .take(n)
         .flat_map(|e| {
-            axes.map(|(d, up)| {
+            region::CUBE_FACES.map(|(d, up)| {
                 let pose = Pose {
                     position: e.to_array(),
                     rotation: None,

@@ -158,21 +158,31 @@ pub fn draw_maps(
     for m in map_cameras(cam, region) {
         let chosen = select_occluders(prep, &m, s, &[]);
         maps.push(RegionMap::draw(prep, &m, region, off_axis, &chosen.ids));
+        if !region.all_directions {
+            continue;
+        }
         let large: Vec<u32> = chosen
             .ids
             .iter()
             .copied()
-            .filter(|&id| {
-                let b = &prep.scene.objects[id as usize].aabb;
-                !b.is_empty() && (b.max - b.min).length() >= LARGE_OCCLUDER_M
-            })
+            .filter(|&id| prep.scene.objects[id as usize].aabb.diagonal() >= LARGE_OCCLUDER_M)
             .collect();
-        if region.all_directions && !large.is_empty() && large.len() < chosen.ids.len() {
+        if !large.is_empty() && large.len() < chosen.ids.len() {
             maps.push(RegionMap::draw(prep, &m, region, off_axis, &large));
         }
     }
     maps
 }
+
+/// The six faces of a cube map: each face's view direction and up.
+pub const CUBE_FACES: [(Vec3, Vec3); 6] = [
+    (Vec3::X, Vec3::Y),
+    (Vec3::NEG_X, Vec3::Y),
+    (Vec3::Y, Vec3::Z),
+    (Vec3::NEG_Y, Vec3::Z),
+    (Vec3::Z, Vec3::Y),
+    (Vec3::NEG_Z, Vec3::Y),
+];
 
 /// Objects at least this large (box diagonal, metres) are drawn again into a second
 /// map without the small ones: a box behind a wall whose image a tree's silhouette
@@ -303,15 +313,7 @@ pub fn map_cameras(cam: &Camera, region: &Region) -> Vec<Camera> {
         let (forward, up) = axes(cam);
         return vec![camera(look_at_rh(centre, centre + forward, up), hx, hy)];
     }
-    let faces = [
-        (Vec3::X, Vec3::Y),
-        (Vec3::NEG_X, Vec3::Y),
-        (Vec3::Y, Vec3::Z),
-        (Vec3::NEG_Y, Vec3::Z),
-        (Vec3::Z, Vec3::Y),
-        (Vec3::NEG_Z, Vec3::Y),
-    ];
-    faces
+    CUBE_FACES
         .iter()
         .map(|&(f, up)| {
             let half = CUBE_FACE_HALF_DEG.to_radians();
