@@ -94,6 +94,23 @@ pub fn loadgen(a: LoadgenArgs) -> Result<()> {
         println!("{}", serde_json::to_string(&report)?);
         return Ok(());
     }
+    if a.mode == "walkers" {
+        let cfg = crate::eval::walkers::WalkersConfig {
+            host: crate::eval::loadgen::loopback(&a.url)?,
+            scene: a.scene.clone(),
+            clients: a.clients,
+            seconds: a.seconds,
+            query: a.stream_query.clone(),
+            viewport: [960, 540],
+        };
+        let report = rt.block_on(crate::eval::walkers::run(&cfg))?;
+        if a.json {
+            println!("{}", serde_json::to_string(&report)?);
+        } else {
+            println!("{}", report.summary());
+        }
+        return Ok(());
+    }
     let report = rt.block_on(crate::eval::loadgen::run(&a.config()))?;
     if a.json {
         println!("{}", serde_json::to_string(&report)?);

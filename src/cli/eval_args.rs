@@ -60,16 +60,18 @@ pub struct LoadgenArgs {
     /// Seconds to run.
     #[arg(long, default_value_t = 5.0)]
     pub seconds: f64,
-    /// `ws` (one pose in flight per client), `batch` (REST batches of --batch poses)
-    /// or `walk` (one client walking the demo street at 60 frames/s, its messages
+    /// `ws` (one pose in flight per client), `batch` (REST batches of --batch poses),
+    /// `walk` (one client walking the demo street at 60 frames/s, its messages
     /// delayed by --delay-ms each way, every drawn frame checked against the exact
-    /// oracle: late reveals, culls per second).
+    /// oracle: late reveals, culls per second) or `walkers` (--clients streams each
+    /// sending 60 poses/s along the street whatever the answers: answered share,
+    /// answer times, culls per client-second, whether all were served at 60 Hz).
     #[arg(long, default_value = "ws")]
     pub mode: String,
     /// `walk`: the delay each way, milliseconds.
     #[arg(long, default_value_t = 0)]
     pub delay_ms: u32,
-    /// `walk`: the stream's query string, e.g. `?region_m=0.5&turn_deg=15` or
+    /// `walk` and `walkers`: the stream's query string, e.g. `?region_m=0.5&turn_deg=15` or
     /// `?lookahead_ms=150&hold_ms=300`.
     #[arg(long, default_value = "")]
     pub stream_query: String,

@@ -7,7 +7,7 @@ use crate::common;
 use common::server::{TestServer, post_json, street_walk};
 use common::ws::{Tracker, connect, connect_hello, next_frame, pose_frame};
 use futures_util::SinkExt;
-use glam::{Quat, Vec3};
+use glam::Vec3;
 use homcull_proto::frame::{ErrorCode, Frame, RegionFrame};
 use homcull_proto::{CullResponse, Pose, Stereo};
 use serde_json::json;
@@ -22,10 +22,7 @@ fn slow_walk(n: usize) -> Vec<Pose> {
         .collect()
 }
 
-fn forward(pose: &Pose) -> [f32; 3] {
-    let q = Quat::from_array(pose.rotation.expect("walk poses use quaternions"));
-    (q.normalize() * Vec3::NEG_Z).to_array()
-}
+use homcull::eval::latency::forward;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_region_stream_culls_once_per_region_and_its_sets_hold() {
@@ -179,5 +176,49 @@ async fn the_delayed_walk_checks_every_frame_and_counts_region_culls() {
         region.culls_per_s * 3.0 < point.culls_per_s,
         "a region stream culls far less often: {region:?} against {point:?}"
     );
+    srv.stop().await;
+}
+
+/// `homcull loadgen --mode walkers`: open-loop walkers send 60 poses a second each,
+/// whatever the answers; region streams answer them with far fewer culls.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn open_loop_walkers_send_on_their_clock_and_count_culls() {
+    use homcull::eval::walkers::{WalkersConfig, run};
+
+    let srv = TestServer::start(|_| {}).await;
+    let host = homcull::eval::loadgen::loopback(&srv.url("")).unwrap();
+    let cfg = |query: &str| WalkersConfig {
+        host: host.clone(),
+        scene: "demo".into(),
+        clients: 4,
+        seconds: 1.0,
+        query: query.into(),
+        viewport: [480, 270],
+    };
+    let region = run(&cfg("?region_m=1&turn_deg=15")).await.unwrap();
+    let point = run(&cfg("")).await.unwrap();
+    eprintln!("{}\n{}", region.summary(), point.summary());
+    for r in [&region, &point] {
+        assert_eq!((r.failed_clients, r.errors), (0, 0), "{r:?}");
+        // 60 a second each, on the clock, whatever the answers (a tick or two may slip).
+        assert!((220..=240).contains(&r.poses_sent), "{r:?}");
+        // The test server culls for every test at once: shares, not rates.
+        assert!(r.answered_share > 0.1, "{r:?}: the server answers");
+        assert!(r.answer_ms.p50 > 0.0, "{r:?}");
+    }
+    // Mostly, the next region arrives before the walkers leave the last (1 m, half
+    // of it held: a third of a second at 1.4 m/s; four regions culled in turn).
+    assert!(region.inside_share > 0.5, "{region:?}");
+    assert_eq!(point.inside_share, 1.0);
+    assert!(
+        region.culls_per_client_s > 0.0
+            && region.culls_per_client_s * 3.0 < point.culls_per_client_s,
+        "a region stream culls far less often: {region:?} against {point:?}"
+    );
+    let bad = WalkersConfig {
+        clients: 0,
+        ..cfg("")
+    };
+    assert!(run(&bad).await.is_err(), "no walkers is refused");
     srv.stop().await;
 }

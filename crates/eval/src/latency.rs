@@ -73,6 +73,12 @@ pub fn walk_pose(t: f32, viewport: [u32; 2]) -> Pose {
     }
 }
 
+/// The view direction of a pose given by its rotation (unit; −z for none).
+pub fn forward(pose: &Pose) -> [f32; 3] {
+    let q = Quat::from_array(pose.rotation.unwrap_or([0.0, 0.0, 0.0, 1.0]));
+    (q.normalize() * Vec3::NEG_Z).to_array()
+}
+
 /// Walks once and checks every drawn frame (see the module docs).
 pub async fn walk(cfg: &WalkConfig) -> Result<WalkReport> {
     crate::loadgen::loopback(&format!("http://{}", cfg.host))?;
@@ -167,9 +173,7 @@ pub async fn walk(cfg: &WalkConfig) -> Result<WalkReport> {
         held_sum += set.len();
         seen_sum += oracle[k].len();
         if let Some(r) = &region {
-            let q = Quat::from_array(pose.rotation.unwrap_or([0.0, 0.0, 0.0, 1.0]));
-            let forward = (q.normalize() * Vec3::NEG_Z).to_array();
-            outside += usize::from(!r.holds(pose.position, forward));
+            outside += usize::from(!r.holds(pose.position, forward(pose)));
         }
     }
     let regions = received

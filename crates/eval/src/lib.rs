@@ -11,5 +11,6 @@ pub mod loss;
 pub mod percentiles;
 pub mod pvs_audit;
 pub mod report;
+pub mod walkers;
 
 pub use compare::{EvalReport, MethodReport, MethodSpec, evaluate, table};

@@ -191,7 +191,7 @@ pub async fn run(a: &LoadConfig) -> Result<LoadReport> {
         bail!("--seconds must be in (0, 600]");
     }
     if !matches!(a.mode.as_str(), "ws" | "single" | "batch") {
-        bail!("--mode must be ws, single, batch or walk");
+        bail!("--mode must be ws, single, batch, walk or walkers");
     }
     if !(a.transforms_per_s >= 0.0 && a.transforms_per_s <= 10_000_000.0) {
         bail!("--transforms-per-s must be in [0, 10000000]");

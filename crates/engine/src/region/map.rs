@@ -24,8 +24,8 @@ use crate::scene::edges::{Hold, held};
 
 use super::clip::{Piece, Source, pieces};
 use super::raster::{
-    Cells, DEPTH_SLACK_ABS, DEPTH_SLACK_REL, ScreenTriangle, cover_pair, cover_triangle, draw_edge,
-    project, rasterize,
+    Cells, DEPTH_SLACK_ABS, DEPTH_SLACK_REL, LeakMask, ScreenTriangle, cover_pair, cover_triangle,
+    floor, project, rasterize,
 };
 
 /// No piece: a triangle not drawn.
@@ -184,7 +184,7 @@ impl RegionMap {
         // Leak edges: the parts of edges where the first drawn surface may end (no
         // neighbour, no drawn triangle holding them), drawn where they are not behind
         // the surface. Cuts need none (see `clip`).
-        let mut leak = vec![false; w * h];
+        let mut mask = LeakMask::new(w, h, &hi);
         for p in &screen {
             let corners = scene.triangle(p.tri);
             for (k, source) in p.edges.iter().enumerate() {
@@ -195,7 +195,11 @@ impl RegionMap {
                     .of(p.tri, e)
                     .and_then(piece)
                     .is_some_and(|n| n.t.facing == p.t.facing);
-                if shared {
+                let ends = (
+                    (p.t.p[k], p.t.depth[k]),
+                    (p.t.p[(k + 1) % 3], p.t.depth[(k + 1) % 3]),
+                );
+                if shared || mask.hidden(ends.0, ends.1) {
                     continue;
                 }
                 let (a, b) = (corners[e], corners[(e + 1) % 3]);
@@ -213,19 +217,16 @@ impl RegionMap {
                     })
                     .collect();
                 for (s0, s1) in open_parts(t0, t1, held_parts) {
-                    let ends = (project(cam, a.lerp(b, s0)), project(cam, a.lerp(b, s1)));
-                    let (pa, pb) = match ends {
+                    let part = match (project(cam, a.lerp(b, s0)), project(cam, a.lerp(b, s1))) {
                         (Some(pa), Some(pb)) => (pa, pb),
                         // Not expected on a drawn piece's edge: then all of that.
-                        _ => (
-                            (p.t.p[k], p.t.depth[k]),
-                            (p.t.p[(k + 1) % 3], p.t.depth[(k + 1) % 3]),
-                        ),
+                        _ => ends,
                     };
-                    draw_edge(pa, pb, w, h, &hi, &mut leak);
+                    mask.draw(part.0, part.1);
                 }
             }
         }
+        let leaks = summed(w, h, mask.leak.into_iter());
         RegionMap {
             min_depth,
             radius,
@@ -235,7 +236,7 @@ impl RegionMap {
             lo: pyramid(w, h, lo, f32::min),
             hi: pyramid(w, h, hi, f32::max),
             untouched: summed(w, h, touched.iter().map(|&t| !t)),
-            leaks: summed(w, h, leak.iter().copied()),
+            leaks,
             occluders: ids.len() as u32,
             triangles,
             cam: cam.clone(),
@@ -378,10 +379,10 @@ impl RegionMap {
     /// The cells `[x0, x1] × [y0, y1]` (inclusive) that the closed pixel rect touches,
     /// dilated by `(kx, ky)` and one cell more; `None` if that leaves the map.
     fn cells(&self, x0: f32, x1: f32, y0: f32, y1: f32, kx: f32, ky: f32) -> Option<[usize; 4]> {
-        let lo_x = (x0 - kx).floor() - 1.0;
-        let hi_x = (x1 + kx).floor() + 1.0;
-        let lo_y = (y0 - ky).floor() - 1.0;
-        let hi_y = (y1 + ky).floor() + 1.0;
+        let lo_x = floor(x0 - kx) - 1.0;
+        let hi_x = floor(x1 + kx) + 1.0;
+        let lo_y = floor(y0 - ky) - 1.0;
+        let hi_y = floor(y1 + ky) + 1.0;
         let inside = lo_x >= 0.0
             && lo_y >= 0.0
             && hi_x < self.w as f32

@@ -5,6 +5,8 @@ use glam::{Vec3, Vec4Swizzles};
 
 use crate::camera::Camera;
 
+use super::spans::{EdgeTest, row_span};
+
 /// Relative and absolute slack on depth comparisons (f32 arithmetic in the bounds).
 pub(super) const DEPTH_SLACK_REL: f32 = 1e-5;
 pub(super) const DEPTH_SLACK_ABS: f32 = 1e-5;
@@ -63,6 +65,21 @@ pub(super) fn screen_triangle(cam: &Camera, corners: [Vec3; 3]) -> Option<Screen
     })
 }
 
+/// `v.floor()`, inline: without SSE4.1 the standard one is a call into libm, and the
+/// map's drawing floors a few numbers per edge step and per triangle.
+#[inline(always)]
+pub(super) fn floor(v: f32) -> f32 {
+    if v.abs() < 2.0e9 {
+        let t = v as i32 as f32;
+        if t > v { t - 1.0 } else { t }
+    } else {
+        v.floor()
+    }
+}
+
+/// The test of the cells a polygon covers whole: inside every edge by a margin.
+const COVERS: EdgeTest = EdgeTest::Holds(1e-3);
+
 /// Side of the square tiles over which [`Cells`] keeps the greatest `cover`: a
 /// triangle behind a tile's greatest cover changes nothing in it and is skipped whole.
 const TILE: usize = 8;
@@ -96,6 +113,9 @@ pub(super) struct Cells {
     /// The greatest `cover` of each tile's cells, tiles row by row.
     tile_cover: Vec<f32>,
     tiles_w: usize,
+    /// Per row of the polygon drawn, its cells and its inner cells (`row_span`),
+    /// kept between polygons.
+    spans: Vec<[usize; 4]>,
 }
 
 impl Cells {
@@ -112,6 +132,7 @@ impl Cells {
             touched: vec![false; n],
             tile_cover: vec![f32::INFINITY; tiles_w * h.div_ceil(TILE)],
             tiles_w,
+            spans: Vec::new(),
         }
     }
 
@@ -144,9 +165,9 @@ impl Cells {
         for q in p {
             (x0, x1, y0, y1) = (x0.min(q[0]), x1.max(q[0]), y0.min(q[1]), y1.max(q[1]));
         }
-        let cx1 = (x1.floor() as i64).min(self.w as i64 - 1);
-        let cy1 = (y1.floor() as i64).min(self.h as i64 - 1);
-        let (cx0, cy0) = (x0.floor().max(0.0) as usize, y0.floor().max(0.0) as usize);
+        let cx1 = (floor(x1) as i64).min(self.w as i64 - 1);
+        let cy1 = (floor(y1) as i64).min(self.h as i64 - 1);
+        let (cx0, cy0) = (floor(x0).max(0.0) as usize, floor(y0).max(0.0) as usize);
         (cx1 >= 0 && cy1 >= 0 && cx0 <= cx1 as usize && cy0 <= cy1 as usize).then_some([
             cx0,
             cx1 as usize,
@@ -155,17 +176,36 @@ impl Cells {
         ])
     }
 
-    /// Calls `f` with each cell index of `rect` whose tile's greatest cover a depth
-    /// of `dmin` does not lie behind, tile by tile; then refreshes the greatest cover
-    /// of the tiles where `f` said it lowered one.
+    /// Calls `f` with each cell index of `rect` on which every one of `edges` passes
+    /// `test` (row by row, [`row_span`]) and whose tile's greatest cover a depth of
+    /// `dmin` does not lie behind, tile by tile, and with whether the cell passes
+    /// `inner` too (false without one); then refreshes the greatest cover of the
+    /// tiles where `f` said it lowered one.
     fn each_cell(
         &mut self,
         rect: [usize; 4],
         dmin: f32,
-        mut f: impl FnMut(&mut Self, usize) -> bool,
+        (edges, test, inner): (&[[f32; 3]], EdgeTest, Option<EdgeTest>),
+        mut f: impl FnMut(&mut Self, usize, bool) -> bool,
     ) {
         let [cx0, cx1, cy0, cy1] = rect;
+        let mut spans = std::mem::take(&mut self.spans);
         for ty in cy0 / TILE..=cy1 / TILE {
+            let open = |tx: usize| !behind(dmin, self.tile_cover[ty * self.tiles_w + tx]);
+            if !(cx0 / TILE..=cx1 / TILE).any(open) {
+                continue; // hidden on this band of tiles: no row to find
+            }
+            let rows = (ty * TILE).max(cy0)..((ty + 1) * TILE).min(cy1 + 1);
+            spans.clear();
+            spans.extend(rows.clone().map(|cy| {
+                let Some((a, b)) = row_span(edges, test, cy, [cx0, cx1]) else {
+                    return [1, 0, 1, 0];
+                };
+                let (ia, ib) = inner
+                    .and_then(|inner| row_span(edges, inner, cy, [a, b]))
+                    .unwrap_or((1, 0));
+                [a, b, ia, ib]
+            }));
             for tx in cx0 / TILE..=cx1 / TILE {
                 let tile = ty * self.tiles_w + tx;
                 if behind(dmin, self.tile_cover[tile]) {
@@ -173,9 +213,10 @@ impl Cells {
                 }
                 let (ys, xs) = (ty * TILE..(ty + 1) * TILE, tx * TILE..(tx + 1) * TILE);
                 let mut lowered = false;
-                for cy in ys.start.max(cy0)..ys.end.min(cy1 + 1) {
-                    for cx in xs.start.max(cx0)..xs.end.min(cx1 + 1) {
-                        lowered |= f(self, cy * self.w + cx);
+                for cy in rows.clone() {
+                    let [a, b, ia, ib] = spans[cy - rows.start];
+                    for cx in xs.start.max(a)..xs.end.min(b + 1) {
+                        lowered |= f(self, cy * self.w + cx, ia <= cx && cx <= ib);
                     }
                 }
                 if lowered {
@@ -189,6 +230,7 @@ impl Cells {
                 }
             }
         }
+        self.spans = spans;
     }
 
     /// Lowers cell `i`'s cover to `far`; whether it did.
@@ -223,24 +265,6 @@ fn turn_sign(p: &[[f32; 2]; 3]) -> f32 {
     let [a, b, c] = *p;
     let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
     if area >= 0.0 { 1.0 } else { -1.0 }
-}
-
-/// Whether every edge function is positive over the whole cell by a margin `m`.
-fn holds_cell(edges: &[[f32; 3]], [x0, x1, y0, y1]: [f32; 4], m: f32) -> bool {
-    edges.iter().all(|&[nx, ny, k]| {
-        let x = if nx >= 0.0 { x0 } else { x1 };
-        let y = if ny >= 0.0 { y0 } else { y1 };
-        nx * x + ny * y + k > m * (nx.abs() + ny.abs())
-    })
-}
-
-/// Whether some edge function is negative over the whole cell by more than `m`.
-fn misses_cell(edges: &[[f32; 3]], [x0, x1, y0, y1]: [f32; 4], m: f32) -> bool {
-    edges.iter().any(|&[nx, ny, k]| {
-        let x = if nx >= 0.0 { x1 } else { x0 };
-        let y = if ny >= 0.0 { y1 } else { y0 };
-        nx * x + ny * y + k < -m * (nx.abs() + ny.abs())
-    })
 }
 
 /// The least and greatest `1/depth` of triangle `t`'s plane over the cell `[x0, x1]
@@ -295,9 +319,9 @@ pub(super) fn cover_triangle(t: &ScreenTriangle, cells: &mut Cells) {
         return;
     };
     let edges = edge_functions(&t.p, turn_sign(&t.p));
-    cells.each_cell(rect, nearest(t), |cells, i| {
+    cells.each_cell(rect, nearest(t), (&edges, COVERS, None), |cells, i, _| {
         let cell = cells.cell(i);
-        holds_cell(&edges, cell, 1e-3) && cells.lower_cover(i, far_in(t, cell))
+        cells.lower_cover(i, far_in(t, cell))
     });
 }
 
@@ -317,13 +341,14 @@ pub(super) fn rasterize(t: &ScreenTriangle, cells: &mut Cells) {
     let (dmin, dmax) = (min(t.depth), max(t.depth));
     let edges = edge_functions(&t.p, turn_sign(&t.p));
     let [pa, pb, pc] = t.plane;
-    cells.each_cell(rect, dmin, |cells, i| {
+    // Separated where some edge is negative at the cell corner it favours most
+    // (with a little slack: touching more cells is conservative). The cells it
+    // covers whole (`interior`) have their centres inside too (the edge tests are
+    // monotone), and there the centre's depth, no more than the far one, bounds
+    // the anchor without the test below.
+    let touches = (&edges[..], EdgeTest::Meets(1e-3), Some(COVERS));
+    cells.each_cell(rect, dmin, touches, |cells, i, interior| {
         let cell @ [x0, x1, y0, y1] = cells.cell(i);
-        // Separated if some edge is negative at the cell corner it favours most
-        // (with a little slack: touching more cells is conservative).
-        if misses_cell(&edges, cell, 1e-3) {
-            return false;
-        }
         let (near, far) = depth_in(t, cell);
         if behind(near, cells.cover[i]) {
             return false; // never the first surface here
@@ -333,9 +358,10 @@ pub(super) fn rasterize(t: &ScreenTriangle, cells: &mut Cells) {
         cells.touched[i] = true;
         // The centre counts as covered only inside every edge by a margin.
         let (mx, my) = (x0 + 0.5, y0 + 0.5);
-        let inside = edges
-            .iter()
-            .all(|&[nx, ny, k]| nx * mx + ny * my + k > 1e-3 * (nx.abs() + ny.abs()));
+        let inside = interior
+            || edges
+                .iter()
+                .all(|&[nx, ny, k]| nx * mx + ny * my + k > 1e-3 * (nx.abs() + ny.abs()));
         if inside {
             let iz = pa * f64::from(mx) + pb * f64::from(my) + pc;
             if iz > 0.0 {
@@ -347,7 +373,8 @@ pub(super) fn rasterize(t: &ScreenTriangle, cells: &mut Cells) {
         // margin) bounds the first surface at some point of it by its far depth:
         // what holds a cell whose centre lies on a seam of two triangles.
         let m = 1e-3;
-        let meets = min(xs) < x1 - m
+        let meets = !interior
+            && min(xs) < x1 - m
             && max(xs) > x0 + m
             && min(ys) < y1 - m
             && max(ys) > y0 + m
@@ -386,57 +413,139 @@ pub(super) fn cover_pair(t: &ScreenTriangle, e: usize, n: &ScreenTriangle, cells
         return;
     };
     let edges = edge_functions(&quad, sign);
-    cells.each_cell(rect, nearest(t).min(nearest(n)), |cells, i| {
+    let covers = (&edges[..], COVERS, None);
+    cells.each_cell(rect, nearest(t).min(nearest(n)), covers, |cells, i, _| {
         let cell = cells.cell(i);
-        holds_cell(&edges, cell, 1e-3) && cells.lower_cover(i, far_in(t, cell).max(far_in(n, cell)))
+        cells.lower_cover(i, far_in(t, cell).max(far_in(n, cell)))
     });
 }
 
-/// Marks every cell that the edge from `a` to `b` (pixel position, view depth) passes
-/// through where its depth is not behind the cell's `hi`: in steps of at most half a
-/// pixel, each step's closed bounding box of cells.
-pub(super) fn draw_edge(
-    a: ([f32; 2], f32),
-    b: ([f32; 2], f32),
+/// The leak mask while its edges are drawn, with the greatest `hi` of each tile of
+/// [`TILE`] cells: a run of an edge whose nearest depth lies behind every tile it
+/// touches marks nothing and is passed over whole, and so is a hidden edge.
+pub(super) struct LeakMask<'a> {
     w: usize,
     h: usize,
-    hi: &[f32],
-    leak: &mut [bool],
-) {
-    let (pa, pb) = (a.0, b.0);
-    let length = (pb[0] - pa[0]).abs().max((pb[1] - pa[1]).abs());
-    let steps = ((length / 0.5).ceil() as usize).clamp(1, 1 << 16);
-    // 1/depth is affine along the projected edge.
-    let (ia, ib) = (1.0 / a.1, 1.0 / b.1);
-    let at = |s: f32| {
-        (
-            [pa[0] + (pb[0] - pa[0]) * s, pa[1] + (pb[1] - pa[1]) * s],
-            ia + (ib - ia) * s,
-        )
-    };
-    let mut prev = at(0.0);
-    for k in 1..=steps {
-        let next = at(k as f32 / steps as f32);
-        // Nearest depth on this step: its larger 1/depth.
-        let nearest = 1.0 / prev.1.max(next.1);
-        let x0 = (prev.0[0].min(next.0[0]) - 1e-3).floor().max(0.0);
-        let x1 = (prev.0[0].max(next.0[0]) + 1e-3)
-            .floor()
-            .min(w as f32 - 1.0);
-        let y0 = (prev.0[1].min(next.0[1]) - 1e-3).floor().max(0.0);
-        let y1 = (prev.0[1].max(next.0[1]) + 1e-3)
-            .floor()
-            .min(h as f32 - 1.0);
-        if x0 <= x1 && y0 <= y1 {
-            for y in y0 as usize..=y1 as usize {
-                for x in x0 as usize..=x1 as usize {
-                    let i = y * w + x;
-                    if nearest <= hi[i] * (1.0 + DEPTH_SLACK_REL) + DEPTH_SLACK_ABS {
-                        leak[i] = true;
-                    }
+    hi: &'a [f32],
+    tiles_w: usize,
+    tile_hi: Vec<f32>,
+    /// Per cell: whether a leak edge may show in it.
+    pub(super) leak: Vec<bool>,
+}
+
+/// A point of an edge on the map: pixel position and view depth.
+pub(super) type EdgePoint = ([f32; 2], f32);
+
+/// Steps of [`LeakMask::draw`] tested against the tiles at once (4 pixels).
+const CHUNK: usize = 8;
+
+impl<'a> LeakMask<'a> {
+    pub(super) fn new(w: usize, h: usize, hi: &'a [f32]) -> Self {
+        let (tiles_w, tiles_h) = (w.div_ceil(TILE), h.div_ceil(TILE));
+        let mut tile_hi = vec![f32::NEG_INFINITY; tiles_w * tiles_h];
+        for y in 0..h {
+            for x in 0..w {
+                let t = &mut tile_hi[(y / TILE) * tiles_w + x / TILE];
+                *t = t.max(hi[y * w + x]);
+            }
+        }
+        LeakMask {
+            w,
+            h,
+            hi,
+            tiles_w,
+            tile_hi,
+            leak: vec![false; w * h],
+        }
+    }
+
+    /// The cells `[x0, x1] × [y0, y1]` that the closed box of `a` and `b` touches
+    /// (with a little slack), as floats; empty (`x0 > x1` or `y0 > y1`) off the map.
+    fn box_cells(&self, a: [f32; 2], b: [f32; 2]) -> [f32; 4] {
+        [
+            floor(a[0].min(b[0]) - 1e-3).max(0.0),
+            floor(a[0].max(b[0]) + 1e-3).min(self.w as f32 - 1.0),
+            floor(a[1].min(b[1]) - 1e-3).max(0.0),
+            floor(a[1].max(b[1]) + 1e-3).min(self.h as f32 - 1.0),
+        ]
+    }
+
+    /// Whether depth `nearest` is behind every cell of the tiles that the box of
+    /// `a` and `b` touches (so nothing there would be marked).
+    fn behind_tiles(&self, a: [f32; 2], b: [f32; 2], nearest: f32) -> bool {
+        let [x0, x1, y0, y1] = self.box_cells(a, b);
+        if !(x0 <= x1 && y0 <= y1) {
+            return true;
+        }
+        let (tx0, tx1) = (x0 as usize / TILE, x1 as usize / TILE);
+        for ty in y0 as usize / TILE..=y1 as usize / TILE {
+            for tx in tx0..=tx1 {
+                if !behind_hi(nearest, self.tile_hi[ty * self.tiles_w + tx]) {
+                    return false;
                 }
             }
         }
-        prev = next;
+        true
     }
+
+    /// Whether the segment from `a` to `b` lies behind `hi` wherever it runs, with
+    /// a pixel and a little depth to spare: its parts, projected again, are drawn
+    /// only where it is not.
+    pub(super) fn hidden(&self, a: EdgePoint, b: EdgePoint) -> bool {
+        let lo = [a.0[0].min(b.0[0]) - 1.0, a.0[1].min(b.0[1]) - 1.0];
+        let hi = [a.0[0].max(b.0[0]) + 1.0, a.0[1].max(b.0[1]) + 1.0];
+        self.behind_tiles(lo, hi, a.1.min(b.1) * (1.0 - 1e-4))
+    }
+
+    /// Marks every cell that the edge from `a` to `b` passes through where its
+    /// depth is not behind the cell's `hi`: in steps of at most half a pixel, each
+    /// step's closed bounding box of cells.
+    pub(super) fn draw(&mut self, a: EdgePoint, b: EdgePoint) {
+        let (pa, pb) = (a.0, b.0);
+        let length = (pb[0] - pa[0]).abs().max((pb[1] - pa[1]).abs());
+        let steps = ((length / 0.5).ceil() as usize).clamp(1, 1 << 16);
+        // 1/depth is affine along the projected edge.
+        let (ia, ib) = (1.0 / a.1, 1.0 / b.1);
+        let at = |k: usize| {
+            let s = k as f32 / steps as f32;
+            (
+                [pa[0] + (pb[0] - pa[0]) * s, pa[1] + (pb[1] - pa[1]) * s],
+                ia + (ib - ia) * s,
+            )
+        };
+        for first in (0..steps).step_by(CHUNK) {
+            let last = (first + CHUNK).min(steps);
+            let (from, to) = (at(first), at(last));
+            // The chunk's nearest depth is at one of its ends (1/depth affine), and
+            // its steps' boxes lie in the box of its ends.
+            if self.behind_tiles(from.0, to.0, 1.0 / from.1.max(to.1)) {
+                continue;
+            }
+            let mut prev = from;
+            for k in first + 1..=last {
+                let next = at(k);
+                // Nearest depth on this step: its larger 1/depth.
+                let nearest = 1.0 / prev.1.max(next.1);
+                let [x0, x1, y0, y1] = self.box_cells(prev.0, next.0);
+                if x0 <= x1 && y0 <= y1 {
+                    for y in y0 as usize..=y1 as usize {
+                        for x in x0 as usize..=x1 as usize {
+                            let i = y * self.w + x;
+                            if !behind_hi(nearest, self.hi[i]) {
+                                self.leak[i] = true;
+                            }
+                        }
+                    }
+                }
+                prev = next;
+            }
+        }
+    }
+}
+
+/// Whether depth `d` lies behind a cell's (or tile's) `hi` beyond the f32 slack.
+fn behind_hi(d: f32, hi: f32) -> bool {
+    // Not in front: also where either is not a number.
+    (d.partial_cmp(&(hi * (1.0 + DEPTH_SLACK_REL) + DEPTH_SLACK_ABS)))
+        .is_none_or(|o| o == std::cmp::Ordering::Greater)
 }
