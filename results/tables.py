@@ -9,7 +9,7 @@ Each generated table sits between two marker lines in its document,
   exact oracle, frustum-only culling and Intel's Masked Occlusion Culling (MOC).
 - `methods` (README.md): one figure per method, munich in the native run.
 - `native` (docs/performance.md): every scene of the native run, every method.
-- `pose_time`, `stereo`, `dynamic`, `server`, `deltas`, `walk` (docs/performance.md) and
+- `pose_time`, `stereo`, `dynamic`, `server`, `deltas`, `walk`, `walkers` (docs/performance.md) and
   `masked` (docs/experiments.md): the parts of the run `EXTRA_RUN`, one folder each.
 
 Usage: `python3 results/tables.py` rewrites the tables; `--check` exits 1 when a
@@ -368,6 +368,35 @@ def walk_table():
     return "\n".join(out) + "\n"
 
 
+def walkers_table():
+    """`homcull loadgen --mode walkers`: open-loop streams against a one-core server."""
+    run = RESULTS / REGION_RUN / "walkers"
+    rows = [json.loads(line) for line in (run / "walkers.jsonl").read_text().splitlines() if line]
+    out = [
+        "`homcull loadgen --mode walkers --seconds 5` (each client sends 60 poses/s along "
+        "the demo street, whatever the answers) against `homcull serve --backend cpu "
+        "--threads 1`, the server pinned to one core and the walkers to the other "
+        f"({(run / 'machine.txt').read_text().strip()}, "
+        f"[`results/{REGION_RUN}/walkers/`](../results/{REGION_RUN}/walkers/), `run.sh walkers`).",
+        "",
+        "| stream | clients | poses answered | answer ms p50 / p99 | culls per client-second "
+        "| frames inside their region | served at 60 Hz |",
+        "|---|---:|---:|---:|---:|---:|---|",
+    ]
+    for r in rows:
+        q = r["query"]
+        m = re.match(r"\?region_m=([0-9.]+)&turn_deg=([0-9.]+)$", q)
+        name = f"region {m.group(1)} m, {m.group(2)}°" if m else (q or "point")
+        inside = f"{100 * r['inside_share']:.1f} %" if m else "—"
+        p = r["answer_ms"]
+        out.append(
+            f"| {name} | {r['clients']} | {100 * r['answered_share']:.1f} % "
+            f"| {p['p50']:.1f} / {p['p99']:.1f} | {r['culls_per_client_s']:.2f} | {inside} "
+            f"| {'yes' if r['served'] else 'no'} |"
+        )
+    return "\n".join(out) + "\n"
+
+
 def masked_table():
     """`cargo run --release --features experimental --example masked_vs_per_pixel`."""
     run = RESULTS / EXTRA_RUN / "masked"
@@ -410,6 +439,7 @@ def main():
         (REPO / "docs" / "performance.md", "server", server_table()),
         (REPO / "docs" / "performance.md", "deltas", deltas_table()),
         (REPO / "docs" / "performance.md", "walk", walk_table()),
+        (REPO / "docs" / "performance.md", "walkers", walkers_table()),
         (REPO / "docs" / "experiments.md", "masked", masked_table()),
     ]
     stale = []

@@ -37,6 +37,30 @@ for part in "${parts[@]}"; do
         done
       done
       kill "$pid"; wait "$pid" || true; trap - EXIT ;;
+    walkers)
+      # The server on one core with one culling thread, the walkers on the other.
+      cargo build --release
+      port=$((20000 + RANDOM % 20000))
+      taskset -c 0 "$bin" serve --backend cpu --threads 1 --addr "127.0.0.1:$port" \
+        --max-connections-per-address 1000 > "$out/walkers/serve.log" 2>&1 &
+      pid=$!
+      trap 'kill $pid 2>/dev/null || true' EXIT
+      for _ in $(seq 1 120); do
+        curl -sf "http://127.0.0.1:$port/readyz" > /dev/null && break
+        sleep 0.5
+      done
+      url="http://127.0.0.1:$port"
+      taskset -c 1 "$bin" loadgen --url "$url" --mode walkers --clients 4 --seconds 1 > /dev/null
+      : > "$out/walkers/walkers.jsonl"
+      for clients in ${WALKERS_POINT:-5 10 15 20 30}; do
+        taskset -c 1 "$bin" loadgen --url "$url" --mode walkers --clients "$clients" --seconds 5 \
+          --json >> "$out/walkers/walkers.jsonl"
+      done
+      for clients in ${WALKERS_REGION:-1 2 3 5 10}; do
+        taskset -c 1 "$bin" loadgen --url "$url" --mode walkers --clients "$clients" --seconds 5 \
+          --stream-query "?region_m=0.5&turn_deg=15" --json >> "$out/walkers/walkers.jsonl"
+      done
+      kill "$pid"; wait "$pid" || true; trap - EXIT ;;
     *) echo "unknown part: $part" >&2; exit 2 ;;
   esac
 done
