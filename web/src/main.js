@@ -5,7 +5,17 @@ import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 
 import { HomcullClient, State } from "./client.js";
-import { LOCKSTEP_ENTER_MS, LOCKSTEP_LEAVE_MS, ViewLog, parseDisplayMode, useLockstep } from "./display.js";
+import {
+  LOCKSTEP_ENTER_MS,
+  LOCKSTEP_LEAVE_MS,
+  REGION,
+  RateMeter,
+  ViewLog,
+  parseDisplayMode,
+  regionHolds,
+  regionMargin,
+  useLockstep,
+} from "./display.js";
 import { flatten, mapObjects, walkStart } from "./scene-map.js";
 import { fetchJson, loadGlb } from "./loading.js";
 import { debugMaterials, levelMaterial, prepareMaterials } from "./materials.js";
@@ -122,9 +132,16 @@ const app = {
   appliedVersion: -1,
   appliedKey: "",
   rendered: null, // {ack, ids, levels, stats, view, lockstep} of the last rendered frame
-  // Display mode (display.js, `?display=auto|lockstep|predict`) and whether frames are
-  // drawn in lockstep now; the views of the poses sent, until answered.
+  // Display mode (display.js, `?display=region|auto|lockstep|predict`) and whether frames
+  // are drawn in lockstep now; the views of the poses sent, until answered.
   display: parseDisplayMode(query.get("display")),
+  // Region streams (display "region"): the region announced for the next set, the region
+  // of the set held (with the view of the pose it was culled for), whether the drawn
+  // eyes lie in it, and region frames per second.
+  pendingRegion: null,
+  heldRegion: null,
+  guaranteed: false,
+  regionRate: new RateMeter(),
   lockstep: query.get("display") === "lockstep",
   views: new ViewLog(),
   sendingExact: false, // the pose last given to the client is the drawn view itself
@@ -326,10 +343,18 @@ function applyPlacements(objects) {
   }
 }
 
+/** Whether the viewer streams regions (display "region"; fixed for the page). */
+function regionStream() {
+  return app.display === "region";
+}
+
 function connect(sceneId) {
-  // Told where moved objects are (scene version and placements, before the frames).
-  const params = { ...STREAM_OPTIONS, ...SMOOTHING, placements: true };
-  for (const k of ["method", "threshold", "deb", "refine", "lookahead_ms", "hold_ms", "seen_first"]) if (query.has(k)) params[k] = query.get(k);
+  // Told where moved objects are (scene version and placements, before the frames). A
+  // region stream takes no point smoothing: its sets hold for the whole region.
+  const region = { region_m: query.get("region_m") ?? REGION.region_m, turn_deg: query.get("turn_deg") ?? REGION.turn_deg };
+  const params = regionStream() ? { ...STREAM_OPTIONS, ...region, placements: true } : { ...STREAM_OPTIONS, ...SMOOTHING, placements: true };
+  const keys = ["method", "threshold", "deb", "refine", "seen_first", ...(regionStream() ? [] : ["lookahead_ms", "hold_ms"])];
+  for (const k of keys) if (query.has(k)) params[k] = query.get(k);
   const lod = query.get("lod_px") ?? LOD_PX;
   if (lod !== "" && lod !== "off") params.lod_px = lod;
   const client = new HomcullClient({ url: location.origin, scene: sceneId, params });
@@ -346,11 +371,18 @@ function connect(sceneId) {
     setHud("hud-adapter", adapter, (v) => v);
     $("hud-adapter").title = adapter;
     setHud("hud-backend", info.backend ?? "", backendLabel);
+    // A new stream: no region is held until it sends one.
+    app.pendingRegion = null;
+    app.heldRegion = null;
     if (objectCount !== app.objects.length) {
       showError("mismatch", `the stream reports ${objectCount} objects but the object table has ${app.objects.length}; reload the page`);
     }
   });
   client.addEventListener("placements", (e) => applyPlacements(e.detail.objects));
+  client.addEventListener("region", (e) => {
+    app.pendingRegion = e.detail;
+    app.regionRate.add(performance.now());
+  });
   client.addEventListener("pose", (e) => {
     const { seq, pose, wantFull } = e.detail;
     app.lastPose = { seq, wantFull, ...pose };
@@ -362,6 +394,11 @@ function connect(sceneId) {
     for (const id of d.ids) if (id < mask.length) mask[id] = 1;
     const levels = client.visible.levels ? d.ids.map((id) => client.visible.level(id)) : null;
     app.latest = { ack: d.ack, ids: d.ids, levels, stats: d.stats, mask, view: app.views.answer(d.ack) };
+    // A region frame holds for the set that follows it.
+    if (app.pendingRegion) {
+      app.heldRegion = { ...app.pendingRegion, view: app.latest.view };
+      app.pendingRegion = null;
+    }
     app.latestVersion += 1;
     if (d.ids.length && d.ids[d.ids.length - 1] >= mask.length) {
       showError("range", `the server sent object ID ${d.ids[d.ids.length - 1]}, beyond the ${mask.length} objects of the scene`);
@@ -401,12 +438,15 @@ export function guardBand(w, h, fovDeg) {
 
 /**
  * The pose to cull for the controls' camera: the drawn view itself in lockstep (the set
- * is drawn with this very view), else widened by the guard band.
+ * is drawn with this very view) and on region streams (the region covers the motion),
+ * else widened by the guard band. A region stream is sent the centre between the eyes
+ * in stereo, with one eye's viewport: both eyes look that way with that frustum from
+ * within STEREO_IPD_M / 2 of it, so the one region that holds them is one answer.
  */
 function currentPose() {
   const [w, h] = eyeViewport();
-  app.sendingExact = app.lockstep;
-  const band = app.lockstep ? { fov: camera.fov, viewport: [w, h] } : guardBand(w, h, camera.fov);
+  app.sendingExact = app.lockstep || regionStream();
+  const band = app.sendingExact ? { fov: camera.fov, viewport: [w, h] } : guardBand(w, h, camera.fov);
   return {
     position: camera.position.toArray(),
     rotation: camera.quaternion.toArray(),
@@ -414,8 +454,24 @@ function currentPose() {
     viewport: band.viewport,
     near: camera.near,
     far: camera.far,
-    ...(app.stereo ? { stereo: { ipd_m: STEREO_IPD_M } } : {}),
+    ...(app.stereo && !regionStream() ? { stereo: { ipd_m: STEREO_IPD_M } } : {}),
   };
+}
+
+/**
+ * Whether the region of the set held holds every eye drawn now: its ball and cone, and
+ * the frustum shape it was culled for (a resized canvas asks for another region).
+ */
+function eyesInHeldRegion() {
+  const held = app.heldRegion;
+  if (!held?.view) return false;
+  const [w, h] = eyeViewport();
+  if (held.view.viewport[0] !== w || held.view.viewport[1] !== h || Math.abs(held.view.fov_y_deg - camera.fov) > 1e-4) return false;
+  const forward = new THREE.Vector3();
+  camera.getWorldDirection(forward);
+  const right = new THREE.Vector3().setFromMatrixColumn(camera.matrixWorld, 0);
+  const eyes = app.stereo ? [-0.5, 0.5].map((side) => camera.position.clone().addScaledVector(right, side * STEREO_IPD_M)) : [camera.position];
+  return eyes.every((eye) => regionHolds(held, eye.toArray(), forward.toArray()));
 }
 
 /** The viewport of one drawn eye: the canvas, or half of it side by side in stereo. */
@@ -695,9 +751,22 @@ function updateHud() {
     setHud("hud-rtt-p95", Number.isFinite(r.p95) ? r.p95 : "", (v) => (v === "" ? "\u2013" : fmtMs(v)));
   }
   setHud("hud-fps", app.fps, (v) => String(v));
-  const display = app.lockstep ? "lockstep" : "predict";
-  setHud("hud-display", display, (v) => (app.display === "auto" ? `${v} (auto)` : v));
+  const display = regionStream() ? "region" : app.lockstep ? "lockstep" : "predict";
+  const spec = app.client?.hello?.info?.region;
+  setHud("hud-display", display, (v) =>
+    v === "region" && spec ? `region ${spec.radius_m} m, ${spec.turn_deg}°` : app.display === "auto" ? `${v} (auto)` : v,
+  );
+  if (regionStream()) {
+    const held = app.heldRegion;
+    const margin = held ? regionMargin(held, camera.position.toArray()) : NaN;
+    setHud("hud-region", app.guaranteed ? margin.toFixed(2) : "outside", (v) =>
+      v === "outside" ? "not guaranteed: outside the held region" : `inside, ${v} m to its edge`,
+    );
+    setHud("hud-region-rate", app.regionRate.rate(performance.now()), (v) => v.toFixed(0));
+  }
+  $("hud-region-row").hidden = !regionStream();
   $("hud-display").title =
+    "region: the current camera is drawn at once with the set of the region it holds (nothing it shows is missing while the camera stays inside). " +
     "lockstep: each visible set is drawn with the view of the pose it answers (nothing pops; the view lags by one round trip). " +
     "predict: the latest set is drawn with the current camera (the guard band and smoothing cover the motion). " +
     `auto: lockstep while the round trip p50 is at most ${LOCKSTEP_ENTER_MS} ms (until it exceeds ${LOCKSTEP_LEAVE_MS} ms).`;
@@ -879,6 +948,7 @@ function loop(now) {
   // drawn view itself, not one widened by the guard band).
   const answered = app.lockstep && app.latest?.view?.exact ? app.latest.view : null;
   const drawnCamera = answered ? cameraForView(answered) : camera;
+  app.guaranteed = regionStream() && eyesInHeldRegion();
   if (app.overview) renderOverview();
   else if (app.stereo) renderStereo(drawnCamera);
   else renderer.render(scene3, drawnCamera);
@@ -890,6 +960,7 @@ function loop(now) {
         stats: app.latest.stats,
         view: viewOf(drawnCamera),
         lockstep: Boolean(answered),
+        guaranteed: app.guaranteed,
       }
     : null;
 
@@ -987,6 +1058,10 @@ function hud() {
     adapter: $("hud-adapter").dataset.value,
     backend: $("hud-backend").dataset.value,
     display: $("hud-display").dataset.value,
+    // Region streams: metres inside the held region ("outside": not guaranteed), and
+    // region frames in the last second.
+    region: $("hud-region").dataset.value,
+    regionsPerS: num("hud-region-rate"),
   };
 }
 
@@ -995,7 +1070,7 @@ window.homcull = {
   /** Sorted IDs of the objects whose meshes were visible in the last rendered frame. */
   drawnIds,
   /**
-   * {ack, ids, stats, view, lockstep} of the last rendered frame: the visible set drawn,
+   * {ack, ids, stats, view, lockstep, guaranteed} of the last rendered frame: the visible set drawn,
    * the view it was drawn with ({position, rotation, fov_y_deg, viewport, near, far}) and
    * whether that view is the answered pose's (lockstep) or the controls' camera.
    */

@@ -4,11 +4,40 @@
 import { test } from "node:test";
 import assert from "node:assert/strict";
 
-import { LOCKSTEP_ENTER_MS, LOCKSTEP_LEAVE_MS, ViewLog, parseDisplayMode, useLockstep } from "../src/display.js";
+import {
+  LOCKSTEP_ENTER_MS,
+  LOCKSTEP_LEAVE_MS,
+  RateMeter,
+  ViewLog,
+  parseDisplayMode,
+  regionHolds,
+  regionMargin,
+  useLockstep,
+} from "../src/display.js";
 
-test("parseDisplayMode takes the three modes and defaults to auto", () => {
-  for (const m of ["auto", "lockstep", "predict"]) assert.equal(parseDisplayMode(m), m);
-  for (const m of [null, undefined, "", "LOCKSTEP", "exact"]) assert.equal(parseDisplayMode(m), "auto");
+test("parseDisplayMode takes the four modes and defaults to region", () => {
+  for (const m of ["region", "auto", "lockstep", "predict"]) assert.equal(parseDisplayMode(m), m);
+  for (const m of [null, undefined, "", "LOCKSTEP", "exact"]) assert.equal(parseDisplayMode(m), "region");
+});
+
+test("a region holds the eyes within its radius looking within its turn", () => {
+  const region = { centre: [1, 2, 3], radius_m: 2, axis: [0, 0, -1], turn_deg: 30 };
+  assert.ok(regionHolds(region, [1, 2, 3], [0, 0, -1]));
+  assert.ok(regionHolds(region, [2.9, 2, 3], [0, 0, -1]), "inside the ball");
+  assert.ok(!regionHolds(region, [3.1, 2, 3], [0, 0, -1]), "beyond the radius");
+  const turned = (deg) => [Math.sin((deg * Math.PI) / 180), 0, -Math.cos((deg * Math.PI) / 180)];
+  assert.ok(regionHolds(region, [1, 2, 3], turned(29)));
+  assert.ok(!regionHolds(region, [1, 2, 3], turned(31)), "turned too far");
+  assert.ok(!regionHolds(null, [1, 2, 3], [0, 0, -1]), "no region holds nothing");
+  assert.equal(regionMargin(region, [1, 2, 4.5]), 0.5);
+  assert.equal(regionMargin(region, [1, 2, 6]), -1);
+});
+
+test("the rate meter counts the last second", () => {
+  const m = new RateMeter();
+  for (const t of [0, 100, 900, 1500]) m.add(t);
+  assert.equal(m.rate(1500), 2, "900 and 1500");
+  assert.equal(m.rate(3000), 0);
 });
 
 test("fixed modes ignore the round trip", () => {
@@ -16,6 +45,7 @@ test("fixed modes ignore the round trip", () => {
     for (const current of [true, false]) {
       assert.equal(useLockstep("lockstep", current, rtt), true);
       assert.equal(useLockstep("predict", current, rtt), false);
+      assert.equal(useLockstep("region", current, rtt), false, "region draws the current camera");
     }
   }
 });

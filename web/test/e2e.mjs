@@ -342,7 +342,10 @@ async function main() {
           let set = null; // the pose set last tick, rendered this tick
           const tick = () => {
             const t = (performance.now() - t0) / 1000;
-            if (set) out.push({ ...set, drawn: h.drawnIds(), streamed: h.lastFrame.ids, view: h.lastFrame.view, lockstep: h.lastFrame.lockstep });
+            if (set) {
+              const f = h.lastFrame;
+              out.push({ ...set, drawn: h.drawnIds(), streamed: f.ids, view: f.view, lockstep: f.lockstep, guaranteed: f.guaranteed });
+            }
             if (t >= seconds) return resolve(out);
             set = { position: [40 + 1.4 * t, 1.7, 0], yaw: -90 + 20 * t, pitch: 0 };
             h.setPose(set.position, set.yaw, set.pitch);
@@ -355,6 +358,7 @@ async function main() {
     for (const f of record) assert.deepEqual(f.drawn, f.streamed, `${what}: drawn meshes differ from the streamed set`);
     const sample = record.filter((_, i) => i % Math.max(1, Math.floor(record.length / 25)) === 0);
     let popped = 0;
+    let poppedGuaranteed = 0; // in frames drawn inside their set's region
     let oracleSeen = 0;
     const missing = new Set();
     const late = [];
@@ -376,6 +380,7 @@ async function main() {
         oracleSeen += 1;
         if (!drawn.has(id)) {
           popped += 1;
+          if (f.guaranteed) poppedGuaranteed += 1;
           missing.add(id);
           late.push(`frame ${k}: ${id}`);
         }
@@ -386,7 +391,7 @@ async function main() {
         `${popped} of ${oracleSeen} oracle-visible object sightings not drawn (${missing.size} distinct objects)`,
     );
     if (popped > 0) log(`${what}: late (drawn set one round trip behind the camera): ${late.join("; ")}`);
-    return { popped, oracleSeen, late, record };
+    return { popped, poppedGuaranteed, oracleSeen, late, record, sample };
   };
   const plain = await walkAtNormalSpeed("no smoothing");
   // Turning is covered by the guard band; without smoothing, what moving reveals arrives
@@ -418,6 +423,41 @@ async function main() {
   assert.equal(lockstep.popped, 0, `lockstep: oracle sightings not drawn: ${lockstep.late.join("; ")}`);
   const hudDisplay = await page.evaluate(() => window.homcull.hud().display);
   assert.equal(hudDisplay, "lockstep", "the HUD names the display mode");
+
+  // Region streams (the default display): the current camera drawn at once with the set
+  // of the region that holds it, so no object the oracle sees in a frame drawn inside
+  // its region may be missing: zero, with no lag. One region answers many poses.
+  await page.goto(`${base}/`);
+  await page.evaluate(() => window.homcull.ready);
+  const regionHello = await page.evaluate(() => window.homcull.client.hello?.info?.region ?? null);
+  assert.deepEqual(regionHello, { radius_m: 2, turn_deg: 20 }, "the viewer streams regions of 2 m and 20° by default");
+  const regions = await walkAtNormalSpeed("region");
+  const inside = regions.sample.filter((f) => f.guaranteed).length;
+  assert.ok(inside >= 0.8 * regions.sample.length, `region: only ${inside} of ${regions.sample.length} checked frames inside their region`);
+  for (const f of regions.record) {
+    if (!f.guaranteed) continue;
+    f.position.forEach((v, i) => assert.ok(Math.abs(v - f.view.position[i]) < 1e-9, "region: the current camera is drawn, no lag"));
+  }
+  assert.equal(regions.poppedGuaranteed, 0, `region: oracle sightings not drawn inside the region: ${regions.late.join("; ")}`);
+  const regionHud = await page.evaluate(() => window.homcull.hud());
+  assert.equal(regionHud.display, "region", "the HUD names the display mode");
+  assert.equal(await page.textContent("#hud-display"), "region 2 m, 20°");
+  assert.ok(regionHud.regionsPerS >= 0, "the HUD counts regions per second");
+  // A teleport leaves the held region: that very frame says so, until the next arrives.
+  const teleported = await page.evaluate(
+    () =>
+      new Promise((resolve) => {
+        window.homcull.setPose([-60, 1.7, 0], -90, 0);
+        requestAnimationFrame(() => resolve({ region: window.homcull.hud().region, guaranteed: window.homcull.lastFrame.guaranteed }));
+      }),
+  );
+  assert.deepEqual(teleported, { region: "outside", guaranteed: false }, "a teleport is not guaranteed");
+  assert.equal(await page.textContent("#hud-region"), "not guaranteed: outside the held region");
+  await page.waitForFunction(() => window.homcull.lastFrame.guaranteed === true, null, { timeout: STEP_TIMEOUT_MS });
+  assert.match(await page.textContent("#hud-region"), /^inside, \d+\.\d\d m to its edge$/);
+  // The rest checks point answers pose by pose, in lockstep.
+  await page.goto(`${base}/?display=lockstep`);
+  await page.evaluate(() => window.homcull.ready);
 
   // Screenshots: normal view, debug view, debug view from above.
   await page.evaluate(() => window.homcull.setPose([0, 1.7, 0], -90, 0));
