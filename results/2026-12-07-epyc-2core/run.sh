@@ -56,7 +56,7 @@ for part in "${parts[@]}"; do
         taskset -c 1 "$bin" loadgen --url "$url" --mode walkers --clients "$clients" --seconds 5 \
           --json >> "$out/walkers/walkers.jsonl"
       done
-      for clients in ${WALKERS_REGION:-1 2 3 5 10}; do
+      for clients in ${WALKERS_REGION:-1 2 3 5 10 20 40}; do
         taskset -c 1 "$bin" loadgen --url "$url" --mode walkers --clients "$clients" --seconds 5 \
           --stream-query "?region_m=0.5&turn_deg=15" --json >> "$out/walkers/walkers.jsonl"
       done

@@ -13,6 +13,8 @@ pub(super) struct Liveness {
     /// 0: no ping outstanding.
     ping_sent_us: AtomicU64,
     pong_us: AtomicU64,
+    /// The last ping's round trip, microseconds (0: none answered yet).
+    rtt_us: AtomicU64,
 }
 
 /// What a ping tick does.
@@ -32,6 +34,7 @@ impl Liveness {
             opened: Instant::now(),
             ping_sent_us: AtomicU64::new(0),
             pong_us: AtomicU64::new(0),
+            rtt_us: AtomicU64::new(0),
         }
     }
 
@@ -40,7 +43,17 @@ impl Liveness {
     }
 
     pub(super) fn ponged(&self) {
-        self.pong_us.store(self.now_us(), Ordering::SeqCst);
+        let now = self.now_us();
+        let sent = self.ping_sent_us.load(Ordering::SeqCst);
+        if sent != 0 && self.pong_us.load(Ordering::SeqCst) <= sent {
+            self.rtt_us.store(now - sent, Ordering::SeqCst);
+        }
+        self.pong_us.store(now, Ordering::SeqCst);
+    }
+
+    /// The round trip of the last ping answered (zero before the first).
+    pub(super) fn rtt(&self) -> Duration {
+        Duration::from_micros(self.rtt_us.load(Ordering::SeqCst))
     }
 
     pub(super) fn on_tick(&self, timeout: Duration) -> Tick {
@@ -69,8 +82,15 @@ mod tests {
         let timeout = Duration::from_millis(40);
         assert_eq!(live.on_tick(timeout), Tick::Ping);
         assert_eq!(live.on_tick(timeout), Tick::Wait);
+        assert_eq!(live.rtt(), Duration::ZERO, "no pong yet");
         std::thread::sleep(Duration::from_millis(5));
         live.ponged();
+        assert!(live.rtt() >= Duration::from_millis(5), "{:?}", live.rtt());
+        live.ponged();
+        assert!(
+            live.rtt() >= Duration::from_millis(5),
+            "a second pong is no round trip"
+        );
         assert_eq!(live.on_tick(timeout), Tick::Ping, "answered: ping again");
         std::thread::sleep(Duration::from_millis(50));
         assert_eq!(live.on_tick(timeout), Tick::Unanswered);

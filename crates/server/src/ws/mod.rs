@@ -442,9 +442,14 @@ async fn client(
             continue;
         }
         // Refused, never culled as a point: the held region must match the held set.
-        let asked = match choices.region.map(|spec| spec.camera(&p)).transpose() {
-            Ok(asked) => asked,
-            Err(message) => {
+        let last = held_region.as_ref();
+        let asked = match choices
+            .region
+            .map(|spec| spec.camera(&p, last, liveness.rtt()))
+        {
+            None => None,
+            Some(Ok(asked)) => Some(asked),
+            Some(Err(message)) => {
                 seq = counter.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
                 let refused = Frame::Error(ErrorFrame {
                     seq,
@@ -505,13 +510,9 @@ async fn client(
                         .placements()
                         .answers_hold_s()
                         .map(Duration::from_secs_f32);
-                    let mut h = region::Held::new(
-                        (seq, p.seq),
-                        asked,
-                        &p.eyes[0],
-                        r.stats.scene_version,
-                        hold,
-                    );
+                    let version = r.stats.scene_version;
+                    let eye = (asked, &p.eyes[0]);
+                    let mut h = region::Held::new((seq, p.seq), eye, started, version, hold);
                     h.stats = stats;
                     if send(&sink, Frame::Region(h.frame), send_timeout)
                         .await

@@ -10,7 +10,10 @@
 //! radius ahead along the client's motion, so that the client, a round trip behind,
 //! walks into it: the region answer holds for every eye inside, so a client that
 //! draws the set while its own pose lies in the announced region never misses what
-//! its view shows.
+//! its view shows. `R` is the least radius: a client too fast for it (its speed over
+//! the last region's answer time and the round trip) gets a larger next region
+//! ([`RegionSpec::radius`]), so that it stays inside until the next one reaches it;
+//! an overloaded server then culls less often, not later.
 
 use std::time::{Duration, Instant};
 
@@ -28,6 +31,8 @@ use homcull_engine::camera::region::{MAX_RADIUS_M, MAX_TURN_DEG};
 pub(super) const HOLD_FRACTION: f32 = 0.5;
 /// Slowest motion (m/s) that moves the next region's centre ahead.
 const MIN_SPEED: f32 = 0.05;
+/// How much more than the measured latency the outer part of a region must last.
+const SIZE_MARGIN: f32 = 1.5;
 
 /// What a region stream asked for.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -62,16 +67,32 @@ impl RegionSpec {
         }))
     }
 
-    /// The region pose to cull for pose `p`: centred a quarter of the radius ahead
-    /// along its motion, turning about its direction; `None` for a stereo pose
-    /// (region streams take mono poses).
-    pub(super) fn pose(&self, p: &Pending) -> Option<Pose> {
+    /// The radius of the next region for a client moving at `speed` (m/s), whose
+    /// last region took `answer` from its pose's arrival to its frame (the cull and
+    /// its wait for the worker) and whose round trip is `rtt`: the stream's, or more
+    /// where the client would cross the region's outer part (1 − [`HOLD_FRACTION`])
+    /// before the next region could reach it, up to [`MAX_RADIUS_M`]. The turn
+    /// stays as asked (a wider turn widens the map, and its cost).
+    pub(super) fn radius(&self, speed: f32, answer: Duration, rtt: Duration) -> f32 {
+        let late = (answer + rtt).as_secs_f32();
+        let needed = SIZE_MARGIN * speed * late / (1.0 - HOLD_FRACTION);
+        if needed.is_nan() {
+            self.radius_m
+        } else {
+            self.radius_m.max(needed.min(MAX_RADIUS_M))
+        }
+    }
+
+    /// The region pose to cull for pose `p`, of radius `radius`: centred a quarter of
+    /// the radius ahead along its motion, turning about its direction; `None` for a
+    /// stereo pose (region streams take mono poses).
+    pub(super) fn pose(&self, p: &Pending, radius: f32) -> Option<Pose> {
         if p.pose.stereo.is_some() {
             return None;
         }
         let v = p.velocity;
         let ahead = if v.length() > MIN_SPEED {
-            v.normalize() * (0.25 * self.radius_m)
+            v.normalize() * (0.25 * radius)
         } else {
             Vec3::ZERO
         };
@@ -79,7 +100,7 @@ impl RegionSpec {
         Some(Pose {
             position: centre.to_array(),
             region: Some(Region {
-                radius_m: Some(self.radius_m),
+                radius_m: Some(radius),
                 turn_deg: Some(self.turn_deg),
                 ..Region::default()
             }),
@@ -89,11 +110,19 @@ impl RegionSpec {
 }
 
 impl RegionSpec {
-    /// The region pose for pose `p` ([`RegionSpec::pose`]) and its camera, or why it
-    /// cannot be culled.
-    pub(super) fn camera(&self, p: &Pending) -> Result<(Pose, Camera), String> {
+    /// The region pose for pose `p` ([`RegionSpec::pose`]), sized by the last region
+    /// `last` and the client's round trip `rtt` ([`RegionSpec::radius`]), and its
+    /// camera, or why it cannot be culled.
+    pub(super) fn camera(
+        &self,
+        p: &Pending,
+        last: Option<&Held>,
+        rtt: Duration,
+    ) -> Result<(Pose, Camera), String> {
+        let answer = last.map_or(Duration::ZERO, |h| h.answer_took);
+        let radius = self.radius(p.velocity.length(), answer, rtt);
         let asked = self
-            .pose(p)
+            .pose(p, radius)
             .ok_or_else(|| "stereo: a region stream takes mono poses".to_string())?;
         let cam = Camera::new(&asked).map_err(|e| e.to_string())?;
         Ok((asked, cam))
@@ -113,15 +142,17 @@ pub(super) struct Held {
     version: u64,
     /// When the scene's motion makes the set stale (`None`: nothing moves).
     until: Option<Instant>,
+    /// From its pose's arrival to its region frame (what sizes the next region).
+    answer_took: Duration,
 }
 
 impl Held {
-    /// The region `asked` culled for the pose whose camera is `eye`, at scene
-    /// `version`, held at most `horizon` (`None`: nothing moves).
+    /// The region `asked` culled for the pose whose camera is `eye` (arrived at
+    /// `started`), at scene `version`, held at most `horizon` (`None`: nothing moves).
     pub(super) fn new(
         (seq, ack): (u32, u32),
-        asked: &Pose,
-        eye: &Camera,
+        (asked, eye): (&Pose, &Camera),
+        started: Instant,
         version: u64,
         horizon: Option<Duration>,
     ) -> Self {
@@ -142,6 +173,7 @@ impl Held {
             up,
             version,
             until: horizon.map(|h| Instant::now() + h),
+            answer_took: started.elapsed(),
         }
     }
 
@@ -198,4 +230,29 @@ impl Held {
 /// A camera's forward and up directions in world space.
 fn axes(cam: &Camera) -> (Vec3, Vec3) {
     (cam.forward(), cam.view.row(1).truncate().normalize())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_next_region_grows_to_cover_the_motion_during_its_answer() {
+        let spec = RegionSpec {
+            radius_m: 0.5,
+            turn_deg: 15.0,
+        };
+        let ms = Duration::from_millis;
+        // Standing, or quick: the asked radius.
+        assert_eq!(spec.radius(0.0, ms(500), ms(100)), 0.5);
+        assert_eq!(spec.radius(1.4, ms(20), ms(10)), 0.5);
+        // 1.4 m/s with 200 ms of answer and round trip: the outer half must last
+        // 1.5 × 0.28 m.
+        let r = spec.radius(1.4, ms(150), ms(50));
+        assert!((r - 1.5 * 1.4 * 0.2 / 0.5).abs() < 1e-5, "{r}");
+        // Never beyond the largest region, nor a number that is not one.
+        assert_eq!(spec.radius(10.0, ms(2000), ms(0)), MAX_RADIUS_M);
+        assert_eq!(spec.radius(f32::NAN, ms(100), ms(0)), 0.5);
+        assert_eq!(spec.radius(f32::INFINITY, ms(100), ms(0)), MAX_RADIUS_M);
+    }
 }
