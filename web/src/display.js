@@ -92,7 +92,7 @@ export class ViewLog {
  */
 export function regionHolds(region, position, forward) {
   if (!region) return false;
-  const d2 = region.centre.reduce((sum, c, k) => sum + (position[k] - c) ** 2, 0);
+  const d2 = distance2(region.centre, position);
   const cos = region.axis.reduce((sum, a, k) => sum + a * forward[k], 0);
   const angle = (Math.acos(Math.max(-1, Math.min(1, cos))) * 180) / Math.PI;
   return d2 <= region.radius_m ** 2 && angle <= region.turn_deg;
@@ -100,8 +100,12 @@ export function regionHolds(region, position, forward) {
 
 /** Metres from `position` to the edge of `region`'s ball (negative outside). */
 export function regionMargin(region, position) {
-  const d2 = region.centre.reduce((sum, c, k) => sum + (position[k] - c) ** 2, 0);
-  return region.radius_m - Math.sqrt(d2);
+  return region.radius_m - Math.sqrt(distance2(region.centre, position));
+}
+
+/** Squared distance between two points `[x, y, z]`. */
+function distance2(a, b) {
+  return a.reduce((sum, c, k) => sum + (b[k] - c) ** 2, 0);
 }
 
 /** Events in the last second: `add(now)` each, `rate(now)` how many (ms clock). */

@@ -26,21 +26,26 @@ pub(super) enum EdgeTest {
 }
 
 impl EdgeTest {
+    /// The coordinate of the cell `[lo, hi]` on one axis that the test reads for an
+    /// edge normal component `n`: the side the normal points away from (`Holds`) or
+    /// to (`Meets`).
+    fn corner(self, n: f32, lo: f32, hi: f32) -> f32 {
+        match (self, n >= 0.0) {
+            (EdgeTest::Holds(_), true) | (EdgeTest::Meets(_), false) => lo,
+            (EdgeTest::Holds(_), false) | (EdgeTest::Meets(_), true) => hi,
+        }
+    }
+
     /// Whether edge `[nx, ny, k]` passes on the cell (the one formula every map
     /// drawing uses).
     pub(super) fn passes(self, [nx, ny, k]: [f32; 3], [x0, x1, y0, y1]: [f32; 4]) -> bool {
+        let (x, y) = (self.corner(nx, x0, x1), self.corner(ny, y0, y1));
+        let v = nx * x + ny * y + k;
         match self {
-            EdgeTest::Holds(m) => {
-                let x = if nx >= 0.0 { x0 } else { x1 };
-                let y = if ny >= 0.0 { y0 } else { y1 };
-                nx * x + ny * y + k > m * (nx.abs() + ny.abs())
-            }
+            EdgeTest::Holds(m) => v > m * (nx.abs() + ny.abs()),
+            // Not below: also where it is not a number.
             EdgeTest::Meets(m) => {
-                let x = if nx >= 0.0 { x1 } else { x0 };
-                let y = if ny >= 0.0 { y1 } else { y0 };
-                // Not below: also where it is not a number.
-                (nx * x + ny * y + k).partial_cmp(&(-m * (nx.abs() + ny.abs())))
-                    != Some(std::cmp::Ordering::Less)
+                v.partial_cmp(&(-m * (nx.abs() + ny.abs()))) != Some(std::cmp::Ordering::Less)
             }
         }
     }
@@ -91,22 +96,7 @@ pub(super) fn row_span(
             continue;
         }
         // Where the edge's line crosses the row (at the y its test reads), as a guess.
-        let y = match test {
-            EdgeTest::Holds(_) => {
-                if ny >= 0.0 {
-                    y0
-                } else {
-                    y1
-                }
-            }
-            EdgeTest::Meets(_) => {
-                if ny >= 0.0 {
-                    y1
-                } else {
-                    y0
-                }
-            }
-        };
+        let y = test.corner(ny, y0, y1);
         let guess = -(f64::from(ny) * f64::from(y) + f64::from(k)) / f64::from(nx);
         let g = guess.floor().clamp(a as f64, b as f64) as usize;
         if nx > 0.0 {
