@@ -32,6 +32,8 @@ HEADLINE_SCENES = ["munich", "etoile", "oa_shouse", "oa_dm1"]
 EXTRA_RUN = "2026-12-07-xeon-2core"
 # Region answers and region streams.
 REGION_RUN = "2026-12-07-epyc-2core"
+# The delayed walks of the demo street and munich.
+WALK_RUN = "2026-12-08-xeon-2core"
 UNITS_MS = {"ns": 1e-6, "µs": 1e-3, "us": 1e-3, "ms": 1.0, "s": 1e3}
 
 
@@ -337,7 +339,7 @@ def deltas_table():
 
 def walk_table():
     """`homcull loadgen --mode walk`: region streams beside point streams, delayed."""
-    run = RESULTS / REGION_RUN / "walk"
+    run = RESULTS / WALK_RUN / "walk"
     rows = [json.loads(line) for line in (run / "walk.jsonl").read_text().splitlines() if line]
     names = {
         "": "point",
@@ -345,13 +347,14 @@ def walk_table():
     }
     out = [
         "`homcull loadgen --mode walk --seconds 4` against `homcull serve --backend cpu` on "
-        "loopback: the demo street at 1.4 m/s, the view swinging up to 30°/s, 60 frames/s "
-        "at 960×540, each message delayed each way; every drawn frame checked against the "
-        f"exact oracle at its pose ({(run / 'machine.txt').read_text().strip()}, "
-        f"[`results/{REGION_RUN}/walk/`](../results/{REGION_RUN}/walk/), `run.sh walk`).",
+        "loopback: the demo street, and munich from its walk start, at 1.4 m/s, the view "
+        "swinging up to 30°/s, 60 frames/s at 960×540, each message delayed each way; every "
+        "drawn frame checked against the exact oracle at its pose "
+        f"({(run / 'machine.txt').read_text().strip()}, "
+        f"[`results/{WALK_RUN}/walk/`](../results/{WALK_RUN}/walk/), `run.sh walk`).",
         "",
-        "| stream | delay each way, ms | late objects per s | frames outside their region | culls per s | objects held ÷ seen |",
-        "|---|---:|---:|---:|---:|---:|",
+        "| scene | stream | delay each way, ms | late objects per s | frames outside their region | culls per s | objects held ÷ seen |",
+        "|---|---|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         q = r["query"]
@@ -362,7 +365,7 @@ def walk_table():
         counted = r["frames"] - r["waiting"]
         outside = f"{r['outside_region']} of {counted}" if q.startswith("?region") else "—"
         out.append(
-            f"| {name} | {r['delay_ms']} | {r['late_per_s']:.1f} | {outside} "
+            f"| {r.get('scene', 'demo')} | {name} | {r['delay_ms']} | {r['late_per_s']:.1f} | {outside} "
             f"| {r['culls_per_s']:.2f} | {r['held_over_seen']:.1f} |"
         )
     return "\n".join(out) + "\n"

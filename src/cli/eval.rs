@@ -82,8 +82,11 @@ pub fn loadgen(a: LoadgenArgs) -> Result<()> {
         .build()
         .context("starting the async runtime")?;
     if a.mode == "walk" {
+        let host = crate::eval::loadgen::loopback(&a.url)?;
+        let path = rt.block_on(crate::eval::latency::WalkPath::of(&host, &a.scene))?;
         let cfg = crate::eval::latency::WalkConfig {
-            host: crate::eval::loadgen::loopback(&a.url)?,
+            host,
+            path,
             scene: a.scene.clone(),
             seconds: a.seconds as f32,
             delay_ms: a.delay_ms,

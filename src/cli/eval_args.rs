@@ -101,7 +101,7 @@ pub struct ReportArgs {
     #[arg(long, default_value = "../shared/scenes")]
     pub scenes_dir: PathBuf,
     /// Which sections to run (comma-separated): quality (with the threshold curve),
-    /// budget, viewport, batch, objects, server, motion. Default: all.
+    /// budget, viewport, batch, objects, server, motion, regions. Default: all.
     #[arg(long, value_delimiter = ',', value_enum)]
     pub sections: Vec<ReportSection>,
 }
@@ -116,6 +116,7 @@ pub enum ReportSection {
     Objects,
     Server,
     Motion,
+    Regions,
 }
 
 /// `homcull animate`: a writer moving objects of a running server (loopback only).
@@ -207,6 +208,7 @@ impl ReportArgs {
                 ReportSection::Objects => Section::Objects,
                 ReportSection::Server => Section::Server,
                 ReportSection::Motion => Section::Motion,
+                ReportSection::Regions => Section::Regions,
             })
             .collect();
         ReportOptions {

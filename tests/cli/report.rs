@@ -1,6 +1,7 @@
 //! `homcull report --quick` end to end: the binary writes report.md and its plots, and
 //! the quality table shows zero false culls for hom and hzb on every scene, as does the
-//! moving-objects table at every horizon.
+//! moving-objects table at every horizon, and no region answer lacks what an eye of
+//! its region sees.
 
 use crate::common;
 
@@ -226,6 +227,38 @@ fn quick_report_writes_markdown_and_plots() {
         assert_ne!(r[1], "0", "movers: {r:?}");
     }
 
+    // Regions: a row per scene, each with its regions checked at their eyes and no
+    // object an eye sees missing from an answer; the target says so too.
+    let regions = md
+        .split("## 7. Visibility from a region")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .expect("a regions section");
+    let (audit, sweep) = regions
+        .split_once("\nKept ÷ seen triangles per drawn frame by radius")
+        .expect("the radius and turn table");
+    let rows: Vec<Vec<&str>> = audit
+        .lines()
+        .filter(|l| l.starts_with("| ") && !l.starts_with("| scene"))
+        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+        .collect();
+    assert_eq!(rows.len(), scenes_seen.len(), "{regions}");
+    for c in &rows {
+        assert!(c[1].parse::<usize>().unwrap() > 0, "{c:?}");
+        assert_eq!(c[3], "0", "objects an eye of a region sees, missing: {c:?}");
+        let kept: f64 = c[4].parse().unwrap();
+        assert!(
+            kept >= 1.0,
+            "a region answer holds what each eye sees: {c:?}"
+        );
+    }
+    assert!(sweep.contains("| point | – |"), "{sweep}");
+    let region_target = targets
+        .lines()
+        .find(|l| l.contains("objects an eye of a region sees that its answer lacks"))
+        .expect("the regions target");
+    assert!(region_target.ends_with("| yes |"), "{region_target}");
+
     // Every plot the report links exists and is a PNG.
     let pngs: Vec<&str> = md
         .split("](")
@@ -242,6 +275,7 @@ fn quick_report_writes_markdown_and_plots() {
         "objects.png",
         "server.png",
         "motion_efficiency.png",
+        "region_kept.png",
     ] {
         assert!(pngs.contains(&name), "report.md links {name}: {pngs:?}");
     }

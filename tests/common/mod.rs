@@ -62,29 +62,6 @@ pub fn scenes_dir() -> Option<PathBuf> {
     }
 }
 
-/// A small deterministic generator (xorshift), so that failures replay.
-pub struct Rng(pub u64);
-
-impl Rng {
-    pub fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    /// A point of the unit ball: on its surface when `surface`.
-    pub fn in_ball(&mut self, surface: bool) -> glam::Vec3 {
-        loop {
-            let v = glam::Vec3::new(self.next(), self.next(), self.next()) * 2.0 - 1.0;
-            let l = v.length();
-            if l > 1e-3 && l <= 1.0 {
-                return if surface { v / l } else { v };
-            }
-        }
-    }
-}
-
 pub mod hostile;
 pub mod rest;
 pub mod scenes;

@@ -8,9 +8,9 @@
 //! backend's exact ID buffer at each eye, its own pixel grid.
 
 use crate::common;
-use crate::common::Rng;
+use homcull::eval::region_eyes::Xorshift as Rng;
 
-use glam::{Quat, Vec3};
+use glam::Vec3;
 use homcull::core::camera::Camera;
 use homcull::core::cull::{Culler, PreparedScene};
 use homcull::core::native::NativeBackend;
@@ -18,40 +18,12 @@ use homcull::core::occluders::OccluderParams;
 use homcull::core::region;
 use homcull::core::sampler::PoseSampler;
 use homcull::core::scene::demo_city;
+use homcull::eval::region_eyes::eyes_in_ball;
 use homcull_proto::{DebVariant, Method, Pose, Region};
 
 const RADII: [f32; 4] = [0.1, 0.5, 1.0, 2.0];
 const TURNS: [f32; 3] = [0.0, 10.0, 30.0];
 const EYES: usize = 64;
-
-/// `n` eyes of the ball around `centre`: the centre, then points of its surface and
-/// of its interior, alternately.
-fn eyes_in_ball(rng: &mut Rng, centre: Vec3, radius: f32, n: usize) -> Vec<Vec3> {
-    (0..n)
-        .map(|k| match k {
-            0 => centre,
-            _ => centre + rng.in_ball(k % 2 == 1) * radius,
-        })
-        .collect()
-}
-
-/// A pose at `eye` looking along `forward` turned by up to `turn` radians (every
-/// fourth on the cone's rim), with the pose's field of view and viewport.
-fn eye_pose(rng: &mut Rng, pose: &Pose, eye: Vec3, forward: Vec3, turn: f32, k: usize) -> Pose {
-    let side = forward.cross(Vec3::Y).normalize_or(Vec3::X);
-    let axis = Quat::from_axis_angle(forward, rng.next() * std::f32::consts::TAU) * side;
-    let angle = if k % 4 == 3 { turn } else { turn * rng.next() };
-    let dir = Quat::from_axis_angle(axis, angle) * forward;
-    Pose {
-        position: eye.to_array(),
-        rotation: None,
-        look_at: Some((eye + dir).to_array()),
-        up: Some([0.0, 1.0, 0.0]),
-        region: None,
-        stereo: None,
-        ..pose.clone()
-    }
-}
 
 /// Region answers for `n` sampled poses of `prep`: returns the objects missing
 /// (seen by an eye's oracle, not in the answer), and the kept and seen triangles.
@@ -59,7 +31,7 @@ fn check(name: &str, prep: &PreparedScene, n: usize, seed: u64) -> (usize, u64, 
     let hom = common::scenes::settings(prep, Method::Hom, DebVariant::Raster, false);
     let exact = common::scenes::settings(prep, Method::Exact, DebVariant::Raster, false);
     let sampled = PoseSampler::new(&prep.scene).sample(n, seed, [480, 270], &|_| true);
-    let mut rng = Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
+    let mut rng = Rng::new(seed);
     let tris = |ids: &[u32]| -> u64 {
         ids.iter()
             .map(|&id| prep.scene.objects[id as usize].triangles() as u64)
@@ -69,7 +41,6 @@ fn check(name: &str, prep: &PreparedScene, n: usize, seed: u64) -> (usize, u64, 
     let mut unseen = std::collections::BTreeMap::new();
     for (i, pose) in sampled.poses.iter().enumerate() {
         let (radius, turn) = (RADII[i % RADII.len()], TURNS[i % TURNS.len()]);
-        let centre = Vec3::from(pose.position);
         let forward = Camera::new(pose).unwrap().forward();
         let asked = Pose {
             region: Some(Region {
@@ -90,13 +61,9 @@ fn check(name: &str, prep: &PreparedScene, n: usize, seed: u64) -> (usize, u64, 
             .filter(|(_, v)| v.is_some())
             .map(|&(id, _)| id)
             .collect();
-        let eyes: Vec<Camera> = eyes_in_ball(&mut rng, centre, radius, EYES)
-            .into_iter()
-            .enumerate()
-            .map(|(k, e)| {
-                let p = eye_pose(&mut rng, pose, e, forward, turn.to_radians(), k);
-                Camera::new(&p).unwrap()
-            })
+        let eyes: Vec<Camera> = eyes_in_ball(&mut rng, pose, forward, radius, turn, EYES)
+            .iter()
+            .map(|p| Camera::new(p).unwrap())
             .collect();
         let mut union = Vec::new();
         for oracle in NativeBackend.cull(prep, &eyes, &exact).unwrap() {
@@ -220,7 +187,7 @@ fn a_box_of_eyes_looking_every_way_sees_nothing_outside_its_answer() {
                     0 => c,
                     1 => lo,
                     2 => hi,
-                    _ => lo + (hi - lo) * Vec3::new(rng.next(), rng.next(), rng.next()),
+                    _ => lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()),
                 };
                 directions.map(|d| {
                     let p = Pose {

@@ -4,7 +4,7 @@
 //! it).
 
 use crate::common;
-use crate::common::Rng;
+use homcull::eval::region_eyes::Xorshift as Rng;
 
 use glam::Vec3;
 use homcull::core::camera::Camera;
@@ -29,7 +29,7 @@ fn eye_cameras(rng: &mut Rng, b: &Aabb, n: usize, accept: &dyn Fn(Vec3) -> bool)
     let inset = Aabb::new(b.min + 1e-3, b.max - 1e-3);
     let mut eyes = vec![inset.center(), inset.min, inset.max];
     for _ in 0..4 * n {
-        let t = Vec3::new(rng.next(), rng.next(), rng.next());
+        let t = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
         eyes.push(inset.min + (inset.max - inset.min) * t);
     }
     eyes.into_iter()
@@ -141,9 +141,12 @@ fn a_cluster_cell_holds_what_its_eyes_see_on_oa_dm1() {
     let mut rng = Rng(3);
     let bounds = scene.bounds;
     for _ in 0..2000 {
-        let t = Vec3::new(rng.next(), rng.next(), rng.next());
+        let t = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
         let p = bounds.min + (bounds.max - bounds.min) * t;
-        let b = Aabb::new(p - Vec3::splat(rng.next()), p + Vec3::splat(rng.next()));
+        let b = Aabb::new(
+            p - Vec3::splat(rng.next_f32()),
+            p + Vec3::splat(rng.next_f32()),
+        );
         let c = pvs.cluster_at(p);
         assert!(
             c < 0 || pvs.clusters_touching(&b).contains(&c),

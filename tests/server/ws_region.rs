@@ -183,7 +183,7 @@ async fn bad_region_streams_are_refused_and_stereo_poses_get_an_error_frame() {
 /// second the client sends).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_delayed_walk_checks_every_frame_and_counts_region_culls() {
-    use homcull::eval::latency::{WalkConfig, walk};
+    use homcull::eval::latency::{WalkConfig, WalkPath, walk};
 
     let srv = TestServer::start(|_| {}).await;
     let host = homcull::eval::loadgen::loopback(&srv.url("")).unwrap();
@@ -194,6 +194,7 @@ async fn the_delayed_walk_checks_every_frame_and_counts_region_culls() {
         delay_ms: 20,
         query: query.into(),
         viewport: [480, 270],
+        path: WalkPath::DEMO_STREET,
     };
     let region = walk(&cfg("?region_m=1&turn_deg=15")).await.unwrap();
     let point = walk(&cfg("")).await.unwrap();

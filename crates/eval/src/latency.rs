@@ -1,5 +1,5 @@
 //! A delayed walk (`homcull loadgen --mode walk`): one client walks the demo city's
-//! street at 1.4 m/s, its view swinging up to 30°/s, drawing at 60 frames/s whatever
+//! street (or another scene from its walk start, [`WalkPath`]) at 1.4 m/s, its view swinging up to 30°/s, drawing at 60 frames/s whatever
 //! the server answers, its messages delayed each way (the client delays its own sends
 //! and receipts: loopback only). Afterwards every drawn frame is checked against the
 //! exact oracle at its pose: a *late reveal* is an object the oracle sees there that the
@@ -14,7 +14,7 @@ use anyhow::{Context, Result, bail};
 use futures_util::{SinkExt, StreamExt};
 use glam::{Quat, Vec3};
 use homcull_proto::frame::{Frame, PoseFrame, RegionFrame, apply_delta};
-use homcull_proto::{BatchResponse, Pose};
+use homcull_proto::{BatchResponse, Pose, SceneInfo};
 use tokio_tungstenite::tungstenite::Message;
 
 /// Walking speed, m/s.
@@ -38,11 +38,72 @@ pub struct WalkConfig {
     /// The stream's query (`?region_m=0.5&turn_deg=15`, `?lookahead_ms=150&hold_ms=300`).
     pub query: String,
     pub viewport: [u32; 2],
+    /// Where it walks ([`WalkPath::of`]).
+    pub path: WalkPath,
+}
+
+/// Where a walk goes: from `from`, level along unit `dir`, the view swinging about it.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct WalkPath {
+    pub from: Vec3,
+    pub dir: Vec3,
+}
+
+impl WalkPath {
+    /// The demo city's street: along +x from x = −100, 1.7 m up.
+    pub const DEMO_STREET: WalkPath = WalkPath {
+        from: Vec3::new(-100.0, 1.7, 0.0),
+        dir: Vec3::X,
+    };
+
+    /// The path of scene `scene` on the server at `host`: the demo street for the
+    /// demo city, else from the scene's walk start (`GET /v1/scenes/{id}`) along its
+    /// level direction.
+    pub async fn of(host: &str, scene: &str) -> Result<Self> {
+        if scene == "demo" {
+            return Ok(Self::DEMO_STREET);
+        }
+        let res = crate::loadgen::http_client()?
+            .get(format!("http://{host}/v1/scenes/{scene}"))
+            .send()
+            .await?;
+        if !res.status().is_success() {
+            bail!("scene {scene}: {} {}", res.status(), res.text().await?);
+        }
+        let info: SceneInfo = res.json().await?;
+        let start = info
+            .start
+            .with_context(|| format!("scene {scene} has no walk start"))?;
+        let from = Vec3::from(start.position);
+        let dir = (Vec3::from(start.look_at) - from) * Vec3::new(1.0, 0.0, 1.0);
+        Ok(WalkPath {
+            from,
+            dir: dir
+                .try_normalize()
+                .context("a walk start looking straight up")?,
+        })
+    }
+
+    /// The pose drawn `t` seconds into the walk, at 1.4 m/s, the view swinging up to
+    /// 30°/s about the path's direction.
+    pub fn pose(&self, t: f32, viewport: [u32; 2]) -> Pose {
+        // The yaw that turns −z onto the path's direction, then the swing.
+        let yaw = (-self.dir.x).atan2(-self.dir.z) + SWING * (SWING_RATE * t).sin();
+        let (s, c) = (yaw / 2.0).sin_cos();
+        let eye = self.from + self.dir * (SPEED * t);
+        Pose {
+            rotation: Some([0.0, s, 0.0, c]),
+            look_at: None,
+            viewport,
+            ..Pose::looking_at(eye.to_array(), (eye + self.dir).to_array())
+        }
+    }
 }
 
 /// What the walk found.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct WalkReport {
+    pub scene: String,
     pub query: String,
     pub delay_ms: u32,
     pub frames: usize,
@@ -61,16 +122,9 @@ pub struct WalkReport {
     pub held_over_seen: f64,
 }
 
-/// The pose drawn `t` seconds into the walk: along +x on the demo street, 1.7 m up.
+/// The pose drawn `t` seconds into a walk of the demo street ([`WalkPath::DEMO_STREET`]).
 pub fn walk_pose(t: f32, viewport: [u32; 2]) -> Pose {
-    let yaw = -std::f32::consts::FRAC_PI_2 + SWING * (SWING_RATE * t).sin();
-    let (s, c) = (yaw / 2.0).sin_cos();
-    Pose {
-        rotation: Some([0.0, s, 0.0, c]),
-        look_at: None,
-        viewport,
-        ..Pose::looking_at([-100.0 + SPEED * t, 1.7, 0.0], [0.0; 3])
-    }
+    WalkPath::DEMO_STREET.pose(t, viewport)
 }
 
 /// The view direction of a pose given by its rotation (unit; −z for none).
@@ -87,7 +141,7 @@ pub async fn walk(cfg: &WalkConfig) -> Result<WalkReport> {
         bail!("--seconds must give at least one frame");
     }
     let poses: Vec<Pose> = (0..frames)
-        .map(|k| walk_pose(k as f32 / FPS, cfg.viewport))
+        .map(|k| cfg.path.pose(k as f32 / FPS, cfg.viewport))
         .collect();
     let url = format!(
         "ws://{}/v1/scenes/{}/stream{}",
@@ -186,6 +240,7 @@ pub async fn walk(cfg: &WalkConfig) -> Result<WalkReport> {
         .count();
     let culls = if regions > 0 { regions } else { answers };
     Ok(WalkReport {
+        scene: cfg.scene.clone(),
         query: cfg.query.clone(),
         delay_ms: cfg.delay_ms,
         frames,
@@ -219,4 +274,32 @@ async fn exact_sets(cfg: &WalkConfig, poses: &[Pose]) -> Result<Vec<Vec<u32>>> {
         sets.extend(r.results.into_iter().map(|c| c.visible));
     }
     Ok(sets)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_walk_goes_along_its_path_looking_along_it_at_first() {
+        for dir in [Vec3::X, Vec3::NEG_Z, Vec3::new(0.6, 0.0, -0.8), Vec3::NEG_X] {
+            let path = WalkPath {
+                from: Vec3::new(1.0, 1.7, 2.0),
+                dir,
+            };
+            let at0 = path.pose(0.0, [64, 36]);
+            assert!(Vec3::from(at0.position).distance(path.from) < 1e-6);
+            let look = Vec3::from(forward(&at0));
+            assert!(look.distance(dir) < 1e-5, "{dir}: looks along {look}");
+            let at1 = path.pose(1.0, [64, 36]);
+            let walked = Vec3::from(at1.position) - path.from;
+            assert!(walked.distance(dir * SPEED) < 1e-5, "{walked}");
+            // The swing turns the view, level, by at most SWING.
+            let turned = Vec3::from(forward(&at1));
+            assert!(turned.y.abs() < 1e-6 && turned.angle_between(dir) <= SWING + 1e-5);
+        }
+        // The demo street is the walk it always was: along +x from x = −100.
+        let p = walk_pose(2.0, [64, 36]);
+        assert!((p.position[0] - (-100.0 + 2.0 * SPEED)).abs() < 1e-5);
+    }
 }

@@ -10,6 +10,7 @@ pub mod loadgen;
 pub mod loss;
 pub mod percentiles;
 pub mod pvs_audit;
+pub mod region_eyes;
 pub mod report;
 pub mod walkers;
 

@@ -50,6 +50,12 @@ pub(super) struct Plan {
     pub(super) city_poses: usize,
     pub(super) clients: Vec<usize>,
     pub(super) load_seconds: f64,
+    /// Regions (section 7): the radii (m) and turns (°) swept, the poses of each pair
+    /// on every scene, and the eyes each answer is checked at.
+    pub(super) region_radii: Vec<f32>,
+    pub(super) region_turns: Vec<f32>,
+    pub(super) region_poses: usize,
+    pub(super) region_eyes: usize,
 }
 
 impl Plan {
@@ -68,6 +74,10 @@ impl Plan {
                 city_poses: 8,
                 clients: vec![1, 4],
                 load_seconds: 1.0,
+                region_radii: vec![0.1, 0.5, 2.0],
+                region_turns: vec![0.0, 30.0],
+                region_poses: 1,
+                region_eyes: 16,
             }
         } else {
             Plan {
@@ -83,6 +93,10 @@ impl Plan {
                 city_poses: 32,
                 clients: vec![1, 10, 32, 50, 100, 250, 500],
                 load_seconds: 4.0,
+                region_radii: vec![0.1, 0.25, 0.5, 1.0, 2.0],
+                region_turns: vec![0.0, 10.0, 30.0],
+                region_poses: 7,
+                region_eyes: 64,
             }
         }
     }

@@ -9,7 +9,9 @@
 //! 3. the occluder budget sweep (demo city, munich);
 //! 4. time per pose against viewport size and batch size, with log-log slopes;
 //! 5. time per pose against object count (sized demo cities);
-//! 6. the server under 1…N WebSocket clients, batching on and off (in [`server`]).
+//! 6. the server under 1…N WebSocket clients, batching on and off (in [`server`]);
+//! 7. visibility from a region: false culls at eyes sampled in each region, and kept
+//!    triangles per drawn frame against radius and turn (in [`regions`]).
 //!
 //! And, after section 3, section 3b: moving objects, efficiency against the motion
 //! horizon (in [`motion`]).
@@ -27,6 +29,7 @@ mod motion;
 mod passes;
 pub mod plot;
 mod quality;
+mod regions;
 mod scaling;
 mod scenes;
 mod server;
@@ -60,6 +63,8 @@ pub enum Section {
     Server,
     /// Efficiency with moving objects against the horizon.
     Motion,
+    /// Region answers against the oracle at eyes of the region.
+    Regions,
 }
 
 /// What a report run measures and where it writes.
@@ -114,8 +119,18 @@ pub fn run(a: &ReportOptions, backend: Backend) -> Result<()> {
         a.out.display()
     );
     let run = |s: Section| a.sections.is_empty() || a.sections.contains(&s);
-    if run(Section::Quality) || run(Section::Budget) || run(Section::Motion) {
-        let scenes = scenes::load_scenes(&a.scenes_dir)?;
+    let on_scenes = [
+        Section::Quality,
+        Section::Budget,
+        Section::Motion,
+        Section::Regions,
+    ];
+    let scenes = if on_scenes.into_iter().any(run) {
+        scenes::load_scenes(&a.scenes_dir)?
+    } else {
+        Vec::new()
+    };
+    if !scenes.is_empty() {
         r.save()?;
         if run(Section::Quality) {
             let evals = quality::section(&mut r, &scenes)?;
@@ -149,6 +164,10 @@ pub fn run(a: &ReportOptions, backend: Backend) -> Result<()> {
             f(&mut r)?;
             r.save()?;
         }
+    }
+    if run(Section::Regions) {
+        regions::section(&mut r, &scenes)?;
+        r.save()?;
     }
     targets::section(&mut r.md, &r.targets, &adapter);
     let secs = r.started.elapsed().as_secs_f64();

@@ -119,6 +119,8 @@ where
         .y_desc(chart.y_label)
         .label_style((FAMILY, 14))
         .axis_desc_style((FAMILY, 16))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
         .draw()
         .map_err(|e| anyhow!("{e}"))?;
     for (i, s) in series.iter().enumerate() {
@@ -145,6 +147,21 @@ where
             .map_err(|e| anyhow!("{e}"))?;
     }
     Ok(())
+}
+
+/// A tick label: at most four significant digits, no trailing zeros (log axes tick at
+/// steps like 0.1 × 3 that f64 does not hold exactly).
+fn tick(v: &f64) -> String {
+    if *v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = (3 - v.abs().log10().floor() as i32).max(0) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
 }
 
 /// Least-squares slope of log(y) against log(x) (the exponent of a power law).
@@ -177,5 +194,14 @@ mod tests {
             .collect();
         assert!((loglog_slope(&p).unwrap() - 2.0).abs() < 1e-9);
         assert_eq!(loglog_slope(&[(1.0, 1.0)]), None);
+    }
+
+    #[test]
+    fn ticks_read_as_numbers() {
+        assert_eq!(tick(&0.30000000000000004), "0.3");
+        assert_eq!(tick(&2.0), "2");
+        assert_eq!(tick(&12345.0), "12345");
+        assert_eq!(tick(&0.00125), "0.00125");
+        assert_eq!(tick(&0.0), "0");
     }
 }

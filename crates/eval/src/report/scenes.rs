@@ -10,6 +10,7 @@ use homcull_engine::camera::Camera;
 use homcull_engine::pvs::Pvs;
 use homcull_engine::resident::{parse_pvs, sample_poses};
 use homcull_engine::scene::{Scene, demo_city, load_path};
+use homcull_proto::Pose;
 
 /// One scene of the report with its PVS (OpenArena maps) when it has one.
 pub(super) struct Loaded {
@@ -24,7 +25,7 @@ impl Loaded {
     }
 
     /// `n` random street-level poses (eyes inside a PVS cluster where there is a PVS).
-    pub(super) fn cams(&self, n: usize, viewport: [u32; 2]) -> Result<Vec<Camera>> {
+    pub(super) fn poses(&self, n: usize, viewport: [u32; 2]) -> Vec<Pose> {
         let res = sample_poses(&self.scene, self.pvs.as_ref(), n, SEED, viewport);
         if res.poses.len() < n {
             eprintln!(
@@ -34,6 +35,11 @@ impl Loaded {
             );
         }
         res.poses
+    }
+
+    /// The cameras of [`Loaded::poses`].
+    pub(super) fn cams(&self, n: usize, viewport: [u32; 2]) -> Result<Vec<Camera>> {
+        self.poses(n, viewport)
             .iter()
             .map(|p| Camera::new(p).map_err(anyhow::Error::from))
             .collect()
