@@ -88,6 +88,7 @@ CONTRACT: dict[str, tuple[str, str | None]] = {
     "HOMCULL_WS_IDLE_TIMEOUT_S": ("uint", "300"),
     "HOMCULL_ALLOWED_ORIGINS": ("string", None),
     "HOMCULL_AUTH": ("string", "writes"),
+    "HOMCULL_STATE": ("string", "journal"),
     "HOMCULL_LOAD_TIMEOUT_S": ("uint", "30"),
     "HOMCULL_HEADER_TIMEOUT_S": ("uint", "20"),
     "HOMCULL_MAX_CONNECTIONS_PER_ADDRESS": ("uint", "128"),

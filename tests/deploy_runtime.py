@@ -966,7 +966,8 @@ def scale_out(bin_path: str, launcher: ProcessLauncher | None = None) -> None:
         env = base_server_env()
         reps = []
         for i, p in enumerate(ports):
-            args = ["--rescan-s", "1", "--ws-max-fps", "1000"]
+            # Replicas on one volume keep placements in memory (one journal per data dir).
+            args = ["--rescan-s", "1", "--ws-max-fps", "1000", "--state", "memory"]
             if glb is not None or i > 0:
                 args.append("--no-demo")  # the demo is only needed as a GLB source
             name = f"replica{i + 1}"

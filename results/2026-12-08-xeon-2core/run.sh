@@ -51,6 +51,21 @@ for part in "${parts[@]}"; do
         done
       done
       stop_server ;;
+    journal)
+      # One writer's update latency with the journal (a flush per update) and in
+      # memory, three rounds alternated, each on a fresh data dir under target/.
+      cargo build --release 2>&1 | quiet
+      : > "$out/journal/latency.jsonl"
+      for round in 1 2 3; do
+        for state in journal memory; do
+          data=$(mktemp -d -p target)
+          start_server "$out/journal/serve.log" --state "$state" --data-dir "$data"
+          python3 "$out/transforms_latency.py" "$url" "$state" 500 >> "$out/journal/latency.jsonl"
+          stop_server
+          rm -rf "$data"
+        done
+      done
+      df -T target | tail -1 | awk '{print "data dir file system: " $2}' >> "$out/journal/machine.txt" ;;
     *) echo "unknown part $part" >&2; exit 2 ;;
   esac
 done

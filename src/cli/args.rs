@@ -10,7 +10,7 @@ use homcull_proto::{CullOptions, CullOptionsQuery, DebVariant, InvalidLod, Metho
 
 use crate::core::engine::BackendChoice;
 use crate::core::occluders::OccluderParams;
-use crate::server::{AuthScope, Config};
+use crate::server::{AuthScope, Config, StateMode};
 
 /// Which scene to load.
 #[derive(Debug, Clone, Args)]
@@ -174,6 +174,12 @@ pub struct ServeArgs {
     /// Where uploaded scenes and their occluder caches live.
     #[arg(long, env = "HOMCULL_DATA_DIR", default_value_os_t = Config::default().data_dir)]
     pub data_dir: PathBuf,
+    /// Where placements that writers send are kept: `journal` (in the data dir, flushed
+    /// before each update is acknowledged and replayed at start: a restart keeps them;
+    /// one server per data dir) or `memory` (lost on restart; for replicas that share
+    /// a data dir).
+    #[arg(long, env = "HOMCULL_STATE", default_value = "journal")]
+    pub state: StateArg,
     /// When set, uploads and deletes need `Authorization: Bearer TOKEN`.
     #[arg(long, env = "HOMCULL_API_TOKEN", hide_env_values = true)]
     pub api_token: Option<String>,
@@ -299,6 +305,10 @@ impl ServeArgs {
         };
         Ok(Config {
             data_dir: self.data_dir.clone(),
+            state: match self.state {
+                StateArg::Journal => StateMode::Journal,
+                StateArg::Memory => StateMode::Memory,
+            },
             api_token: self.api_token.clone(),
             auth: match self.auth {
                 AuthArg::Writes => AuthScope::Writes,
@@ -343,6 +353,13 @@ pub struct HealthcheckArgs {
     /// URL of /healthz; default: port of HOMCULL_ADDR on 127.0.0.1.
     #[arg(long, env = "HOMCULL_HEALTHCHECK_URL")]
     pub url: Option<String>,
+}
+
+/// `--state`: where placements are kept.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum StateArg {
+    Journal,
+    Memory,
 }
 
 /// `--auth`: what the API token guards.

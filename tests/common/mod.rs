@@ -63,6 +63,7 @@ pub fn scenes_dir() -> Option<PathBuf> {
 }
 
 pub mod hostile;
+pub mod process;
 pub mod rest;
 pub mod scenes;
 pub mod server;

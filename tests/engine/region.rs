@@ -18,7 +18,7 @@ use homcull::core::occluders::OccluderParams;
 use homcull::core::region;
 use homcull::core::sampler::PoseSampler;
 use homcull::core::scene::demo_city;
-use homcull::eval::region_eyes::eyes_in_ball;
+use homcull::eval::region_eyes::{ball_region, eyes_in_ball};
 use homcull_proto::{DebVariant, Method, Pose, Region};
 
 const RADII: [f32; 4] = [0.1, 0.5, 1.0, 2.0];
@@ -42,14 +42,7 @@ fn check(name: &str, prep: &PreparedScene, n: usize, seed: u64) -> (usize, u64, 
     for (i, pose) in sampled.poses.iter().enumerate() {
         let (radius, turn) = (RADII[i % RADII.len()], TURNS[i % TURNS.len()]);
         let forward = Camera::new(pose).unwrap().forward();
-        let asked = Pose {
-            region: Some(Region {
-                radius_m: Some(radius),
-                turn_deg: Some(turn),
-                ..Region::default()
-            }),
-            ..pose.clone()
-        };
+        let asked = ball_region(pose, radius, turn);
         let cam = Camera::new(&asked).unwrap();
         // The answer is the candidates some verdict keeps (`region::cull` serves the
         // same judgement); the verdicts say why the unseen ones were kept.

@@ -8,6 +8,7 @@ use common::rest::{error_of, small_glb};
 use common::server::{TestServer, get_bytes, get_json, post_json};
 use homcull::core::engine::Backend;
 use homcull::core::scene::write_glb;
+use homcull::server::StateMode;
 use homcull_proto::{CullResponse, ObjectList, SceneInfo, SceneList};
 use serde_json::json;
 
@@ -157,10 +158,16 @@ async fn uploads_persist_across_restarts_and_writes_need_the_token() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_replica_picks_up_scenes_another_wrote_and_healthcheck_answers() {
     let dir = tempfile::tempdir().unwrap();
-    let a = TestServer::start_in(dir.path(), |c| c.no_demo = true).await;
+    // Replicas that share a data dir keep placements in memory (one journal per dir).
+    let a = TestServer::start_in(dir.path(), |c| {
+        c.no_demo = true;
+        c.state = StateMode::Memory;
+    })
+    .await;
     let b = TestServer::start_in(dir.path(), |c| {
         c.no_demo = true;
         c.rescan_s = 1;
+        c.state = StateMode::Memory;
     })
     .await;
     let http = reqwest::Client::new();

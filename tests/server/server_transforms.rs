@@ -9,6 +9,7 @@ use common::rest::{error_of, pose_json};
 use common::server::{TestServer, get_json, post_json, street_walk};
 use glam::Vec3;
 use homcull::core::camera::Camera;
+use homcull::server::StateMode;
 use homcull_proto::{CullResponse, ObjectList, TransformsResponse};
 use serde_json::{Value, json};
 
@@ -402,10 +403,11 @@ async fn animate_drives_the_demo_citys_cars() {
     srv.stop().await;
 }
 
-/// Placements live in memory: a restart serves the stored scene as its file has it,
-/// at version 0 (and the upload itself survives).
+/// With the journal (the default) a restart serves the stored scene where its writers
+/// left it, at the same version; in memory (`--state memory`) as its file has it, at
+/// version 0. The upload itself survives both.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_restart_starts_again_from_the_scene_file() {
+async fn a_restart_keeps_placements_in_the_journal_and_forgets_them_in_memory() {
     let dir = tempfile::tempdir().unwrap();
     let http = reqwest::Client::new();
     // The small scene: a wall at z = -10, a box hidden behind it at z = -20.
@@ -440,9 +442,26 @@ async fn a_restart_starts_again_from_the_scene_file() {
     let srv = TestServer::start_in(dir.path(), |_| {}).await;
     let again: CullResponse = post_json(&http, cull(&srv), &json!({"pose": pose})).await;
     assert_eq!(
-        again.stats.scene_version, 0,
-        "a restart keeps no placements"
+        (again.visible.as_slice(), again.stats.scene_version),
+        (&[1][..], 1),
+        "the journal keeps the wall out of the way"
     );
-    assert_eq!(again.visible, before.visible);
+    srv.stop().await;
+
+    let srv = TestServer::start_in(dir.path(), |c| c.state = StateMode::Memory).await;
+    let fresh: CullResponse = post_json(&http, cull(&srv), &json!({"pose": pose})).await;
+    assert_eq!(fresh.stats.scene_version, 0, "memory keeps no placements");
+    assert_eq!(fresh.visible, before.visible);
+    srv.stop().await;
+
+    // Deleting the scene deletes its journal.
+    let srv = TestServer::start_in(dir.path(), |_| {}).await;
+    let gone = http
+        .delete(srv.url(&format!("/v1/scenes/{id}")))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(gone.status(), 204);
+    assert!(!dir.path().join("state").join(&id).exists());
     srv.stop().await;
 }

@@ -7,7 +7,7 @@
 //! direction of the cone (every fourth on its rim, where a turn reveals the most).
 
 use glam::{Quat, Vec3};
-use homcull_proto::Pose;
+use homcull_proto::{Pose, Region};
 
 /// A small deterministic generator (xorshift64) for eyes and directions.
 #[derive(Debug, Clone)]
@@ -70,6 +70,18 @@ pub fn eyes_in_ball(
             looking(pose, eye, Quat::from_axis_angle(axis, angle) * forward)
         })
         .collect()
+}
+
+/// `pose` asked as the ball region of radius `radius_m` turning `turn_deg` about it.
+pub fn ball_region(pose: &Pose, radius_m: f32, turn_deg: f32) -> Pose {
+    Pose {
+        region: Some(Region {
+            radius_m: Some(radius_m),
+            turn_deg: Some(turn_deg),
+            ..Region::default()
+        }),
+        ..pose.clone()
+    }
 }
 
 /// `pose` moved to `eye`, looking along `dir`, with no region or stereo.

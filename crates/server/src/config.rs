@@ -18,11 +18,25 @@ pub enum AuthScope {
     Cull,
 }
 
+/// Where a scene's placements (what writers moved) are kept.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StateMode {
+    /// Journaled in the data dir before each update is acknowledged, replayed at
+    /// start (`journal`): a restart serves the same placements at the same version.
+    #[default]
+    Journal,
+    /// In memory only: a restart serves the scene files' placements at version 0
+    /// (replicas that share a data dir, until they share a state engine).
+    Memory,
+}
+
 /// How a server runs.
 #[derive(Debug, Clone)]
 pub struct Config {
     /// Where uploaded scenes and their occluder caches live.
     pub data_dir: PathBuf,
+    /// Where placements are kept.
+    pub state: StateMode,
     /// When set, uploads and deletes need `Authorization: Bearer TOKEN`.
     pub api_token: Option<String>,
     /// What the token guards besides uploads and deletes.
@@ -108,6 +122,7 @@ impl Default for Config {
     fn default() -> Self {
         Config {
             data_dir: PathBuf::from("./data"),
+            state: StateMode::Journal,
             api_token: None,
             auth: AuthScope::Writes,
             max_batch: 1024,

@@ -7,6 +7,9 @@
 //! - [`state`]: the registry of resident scenes and shared state; [`scenes`]: how
 //!   scenes enter and leave it; [`store`]: the data directory; [`scene_files`]: scenes
 //!   named at start (`--scene`), served read-only; [`alloc`]: allocator tuning.
+//! - [`transforms`]: writers moving objects; [`writes`]: the one path of their
+//!   updates (checked, kept, applied); [`journal`]: updates kept across
+//!   restarts (`--state journal`).
 //! - [`error`]: the one JSON error shape; [`metrics`]: Prometheus.
 //! - [`static_files`]: the embedded browser viewer (`web/dist`) at `/`.
 //!
@@ -18,6 +21,7 @@ pub mod alloc;
 pub mod config;
 pub mod error;
 pub mod guard;
+pub mod journal;
 pub mod listen;
 pub mod metrics;
 pub mod motion;
@@ -29,6 +33,7 @@ pub mod static_files;
 pub mod store;
 pub mod transforms;
 pub mod worker;
+pub mod writes;
 pub mod ws;
 
 use std::future::Future;
@@ -47,7 +52,7 @@ use tower_http::trace::TraceLayer;
 use utoipa::OpenApi;
 use utoipa_swagger_ui::SwaggerUi;
 
-pub use config::{AuthScope, Config};
+pub use config::{AuthScope, Config, StateMode};
 
 use homcull_engine::engine::Backend;
 use state::{AppState, Inner};
@@ -220,6 +225,10 @@ pub async fn serve(
 fn start(config: Config, backend: Backend) -> std::io::Result<(AppState, watch::Sender<bool>)> {
     alloc::tune_allocator();
     let store = Store::open(&config.data_dir)?;
+    let journals = match config.state {
+        StateMode::Journal => Some(journal::StateDir::open(&config.data_dir)?),
+        StateMode::Memory => None,
+    };
     let files = scene_files::load_all(&config.scenes, &config.load_limits())
         .map_err(std::io::Error::other)?;
     let (shutdown_tx, shutdown) = watch::channel(false);
@@ -238,6 +247,7 @@ fn start(config: Config, backend: Backend) -> std::io::Result<(AppState, watch::
     let state = AppState(Arc::new(Inner {
         config,
         store,
+        journals,
         scenes: Default::default(),
         worker,
         backend,

@@ -20,6 +20,7 @@ use serde::Deserialize;
 
 use super::error::ApiError;
 use super::state::{AppState, GlbSource, SceneEntry};
+use super::writes::Durability;
 use homcull_engine::camera::{Camera, stereo};
 use homcull_engine::cull::PoseResult;
 use homcull_engine::dynamic::marks;
@@ -48,6 +49,7 @@ pub async fn readyz(State(state): State<AppState>) -> Response {
         "backend": state.backend.name(),
         "cpu_fallback": matches!(state.backend, Backend::Reference),
         "scenes": state.scene_list().len(),
+        "state": state_status(&state),
     });
     let status = if ready {
         StatusCode::OK
@@ -55,6 +57,22 @@ pub async fn readyz(State(state): State<AppState>) -> Response {
         StatusCode::SERVICE_UNAVAILABLE
     };
     (status, Json(body)).into_response()
+}
+
+/// Where placements are kept, for `/readyz`: the backend and the scenes whose journal
+/// cannot be used (their updates are refused).
+fn state_status(state: &AppState) -> serde_json::Value {
+    let scenes = state.scenes.read().unwrap_or_else(|p| p.into_inner());
+    let broken: Vec<&str> = scenes
+        .values()
+        .filter(|s| matches!(s.writes.durability, Durability::Broken(_)))
+        .map(|s| s.info.id.as_str())
+        .collect();
+    serde_json::json!({
+        "backend": if state.journals.is_some() { "journal" } else { "memory" },
+        "connected": broken.is_empty(),
+        "unavailable_scenes": broken,
+    })
 }
 
 /// Prometheus metrics in the text exposition format.
@@ -302,6 +320,10 @@ pub async fn delete_scene(
         let _changing = st.changes.lock().unwrap_or_else(|p| p.into_inner());
         let res = st.store.delete(&id);
         st.remove(&id);
+        // Its id is never used again: its placements go with it.
+        if let Some(Err(e)) = st.journals.as_ref().map(|j| j.remove(&id)) {
+            tracing::warn!(%id, "removing a deleted scene's placement journal: {e}");
+        }
         res
     })
     .await

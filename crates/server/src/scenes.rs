@@ -27,7 +27,8 @@ impl AppState {
             glb_bytes: len,
             read_only: true,
         };
-        let entry = SceneEntry::build(origin, scene, self.occluder_params(), None, &self.backend);
+        let resident = assemble(scene, self.occluder_params(), None, &self.backend);
+        let entry = SceneEntry::new(origin, resident, self.journals.as_ref());
         tracing::info!(
             objects = entry.info.objects,
             ms = t.elapsed().as_millis() as u64,
@@ -53,13 +54,8 @@ impl AppState {
             glb_bytes,
             read_only: true,
         };
-        let entry = SceneEntry::build(
-            origin,
-            file.scene,
-            self.occluder_params(),
-            None,
-            &self.backend,
-        );
+        let resident = assemble(file.scene, self.occluder_params(), None, &self.backend);
+        let entry = SceneEntry::new(origin, resident, self.journals.as_ref());
         release_free_heap();
         tracing::info!(
             id = %entry.info.id, objects = entry.info.objects,
@@ -157,7 +153,7 @@ impl AppState {
             glb_bytes,
             read_only: false,
         };
-        let entry = SceneEntry::new(origin, resident);
+        let entry = SceneEntry::new(origin, resident, self.journals.as_ref());
         if !cached {
             if let Err(e) = self
                 .store

@@ -11,8 +11,10 @@ use tokio::sync::watch;
 
 use super::config::Config;
 use super::error::ApiError;
+use super::journal::StateDir;
 use super::store::{OccluderCache, Store};
 use super::worker::{SharedEngine, WorkerHandle};
+use super::writes::{self, Writes};
 use homcull_engine::dynamic::Dynamics;
 use homcull_engine::engine::Backend;
 use homcull_engine::occluders::OccluderParams;
@@ -63,6 +65,8 @@ pub struct SceneEntry {
     pub engine: SharedEngine,
     /// Where writers move the scene's objects (the engine follows when it culls).
     pub dynamics: Arc<Mutex<Dynamics>>,
+    /// The writers' way in: the same placements, and how updates are kept.
+    pub writes: Arc<Writes>,
 }
 
 impl SceneEntry {
@@ -73,19 +77,13 @@ impl SceneEntry {
         self.dynamics.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    /// Makes a scene resident (occluders from `cache` when it fits) on `backend`.
-    pub(super) fn build(
+    /// The entry of a scene already assembled (the slow part, see [`assemble`]), its
+    /// placements restored from its journal in `journals` (`None`: kept in memory).
+    pub(super) fn new(
         origin: Origin,
-        scene: Scene,
-        params: OccluderParams,
-        cache: Option<OccluderCache>,
-        backend: &Backend,
+        resident: ResidentScene,
+        journals: Option<&StateDir>,
     ) -> SceneEntry {
-        SceneEntry::new(origin, assemble(scene, params, cache, backend))
-    }
-
-    /// The entry of a scene already assembled (the slow part, see [`assemble`]).
-    pub(super) fn new(origin: Origin, resident: ResidentScene) -> SceneEntry {
         let scene = resident.scene();
         let Origin {
             id,
@@ -106,12 +104,18 @@ impl SceneEntry {
             warnings: scene.warnings.clone(),
             start: resident.start,
         };
+        let dynamics = resident.engine.dynamics();
+        let durability = writes::recover(journals, &info.id, scene, &dynamics);
         SceneEntry {
             info,
             objects: resident.objects,
             glb,
             read_only,
-            dynamics: resident.engine.dynamics(),
+            writes: Arc::new(Writes {
+                dynamics: dynamics.clone(),
+                durability,
+            }),
+            dynamics,
             engine: Arc::new(Mutex::new(resident.engine)),
         }
     }
@@ -132,6 +136,8 @@ impl SceneEntry {
 pub struct Inner {
     pub config: Config,
     pub store: Store,
+    /// The placement journals (`--state journal`), `None` in memory.
+    pub journals: Option<super::journal::StateDir>,
     pub scenes: RwLock<BTreeMap<String, Arc<SceneEntry>>>,
     pub worker: WorkerHandle,
     pub backend: Backend,

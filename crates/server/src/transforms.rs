@@ -2,10 +2,12 @@
 //! checked whole and applied whole (`core::dynamic::Dynamics::apply`), makes the next
 //! scene version, and reaches the next cull of the scene: the worker's engine moves to
 //! the latest version when it starts a batch, so culls never wait for writers, nor
-//! writers for culls. Placements live in memory only: a restart, or a rescan that
-//! reloads the scene, starts again from the file.
+//! writers for culls. With `--state journal` (the default) each update is journaled
+//! before it is applied and acknowledged ([`super::journal`]), so a restart serves the
+//! same placements at the same version; with `--state memory` a restart starts again
+//! from the file.
 
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use axum::Json;
 use axum::body::Bytes;
@@ -16,7 +18,7 @@ use homcull_proto::{TransformsRequest, TransformsResponse};
 use super::error::ApiError;
 use super::routes::body_error;
 use super::state::AppState;
-use homcull_engine::dynamic::Dynamics;
+use super::writes::Writes;
 
 /// Moves objects: new placements (relative to the loaded scene) and declared motion,
 /// all applied or none; answers the scene version they make.
@@ -34,7 +36,7 @@ pub async fn transforms(
     let scene = state.scene(&id)?;
     let applied = req.objects.len() as u32;
     let version = apply(
-        scene.dynamics.clone(),
+        scene.writes.clone(),
         req,
         state.config.max_transform_objects,
     )
@@ -46,18 +48,16 @@ pub async fn transforms(
 /// version it made, or why it was refused. The one path of every writer, REST or
 /// stream.
 pub async fn apply(
-    dynamics: Arc<Mutex<Dynamics>>,
+    writes: Arc<Writes>,
     req: TransformsRequest,
     max_objects: usize,
 ) -> Result<u64, ApiError> {
     let applied = req.objects.len() as u64;
-    // Blocking: the first update of a scene indexes its vertex ranges.
-    let version = tokio::task::spawn_blocking(move || {
-        let mut d = dynamics.lock().unwrap_or_else(|p| p.into_inner());
-        d.apply(&req, max_objects)
-    })
-    .await
-    .map_err(|e| ApiError::internal(format!("transforms task failed: {e}")))??;
+    // Blocking: the first update of a scene indexes its vertex ranges, and the journal
+    // flushes to disk.
+    let version = tokio::task::spawn_blocking(move || writes.apply(&req, max_objects))
+        .await
+        .map_err(|e| ApiError::internal(format!("transforms task failed: {e}")))??;
     metrics::counter!("homcull_object_transforms_total").increment(applied);
     Ok(version)
 }

@@ -66,6 +66,31 @@ pub struct Dynamics {
     shared: Option<Vec<u32>>,
 }
 
+/// An update checked whole ([`Dynamics::check`]), to be applied as `version`.
+#[derive(Debug, Clone)]
+pub struct Checked {
+    pub version: u64,
+    horizon: Option<f32>,
+    placed: Vec<(u32, Option<Placement>)>,
+}
+
+/// Every placed object of a scene at one version (the rest as loaded), and the
+/// horizon: what a journal's snapshot keeps.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Placed {
+    pub version: u64,
+    pub horizon_s: f32,
+    /// Ascending by id.
+    pub objects: Vec<(u32, Placement)>,
+}
+
+impl Placed {
+    /// The horizon a scene starts with, seconds.
+    pub fn default_horizon_s() -> f32 {
+        (DEFAULT_HORIZON_MS / 1e3) as f32
+    }
+}
+
 /// What changed since the engine last looked: enough to build the next scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Changes {
@@ -81,7 +106,7 @@ impl Dynamics {
         Dynamics {
             base,
             version: 0,
-            horizon_s: (DEFAULT_HORIZON_MS / 1e3) as f32,
+            horizon_s: Placed::default_horizon_s(),
             placements: Vec::new(),
             dirty: Vec::new(),
             shared: None,
@@ -107,6 +132,19 @@ impl Dynamics {
         req: &TransformsRequest,
         max_objects: usize,
     ) -> Result<u64, TransformError> {
+        let checked = self.check(req, max_objects)?;
+        Ok(self.commit(checked))
+    }
+
+    /// Checks `req` whole (at most `max_objects` objects) without applying it: what
+    /// [`Dynamics::commit`] applies as the next version, so that a writer can make the
+    /// update durable in between. Only commits change what a check found, so the
+    /// check holds until the next commit.
+    pub fn check(
+        &mut self,
+        req: &TransformsRequest,
+        max_objects: usize,
+    ) -> Result<Checked, TransformError> {
         let objects = self.base.scene.objects.len();
         if req.objects.len() > max_objects {
             return Err(TransformError::TooMany {
@@ -136,9 +174,33 @@ impl Dynamics {
             let p = Placement::from_update(t, o.aabb)?;
             placed.push((t.id, (!p.is_identity()).then_some(p)));
         }
-        // Everything checked: apply.
+        Ok(Checked {
+            version: self.version + 1,
+            horizon,
+            placed,
+        })
+    }
+
+    /// Applies a checked update: its version, now the scene's.
+    ///
+    /// # Panics
+    /// If another update was committed since the check (a writer must check and commit
+    /// under one lock of its own).
+    pub fn commit(&mut self, checked: Checked) -> u64 {
+        assert_eq!(
+            checked.version,
+            self.version + 1,
+            "an update committed between another's check and commit"
+        );
+        self.place(checked.horizon, checked.placed);
+        self.version = checked.version;
+        self.version
+    }
+
+    /// Sets placements and the horizon, marking what they change.
+    fn place(&mut self, horizon: Option<f32>, placed: Vec<(u32, Option<Placement>)>) {
         if self.placements.is_empty() {
-            self.placements = vec![None; objects];
+            self.placements = vec![None; self.base.scene.objects.len()];
         }
         if let Some(h) = horizon.filter(|&h| h != self.horizon_s) {
             self.horizon_s = h;
@@ -151,8 +213,50 @@ impl Dynamics {
             self.placements[id as usize] = p;
             self.dirty.push(id);
         }
-        self.version += 1;
-        Ok(self.version)
+    }
+
+    /// Every placement now, and the version and horizon they belong to.
+    pub fn placed(&self) -> Placed {
+        Placed {
+            version: self.version,
+            horizon_s: self.horizon_s,
+            objects: (self.placements.iter().enumerate())
+                .filter_map(|(id, p)| p.map(|p| (id as u32, p)))
+                .collect(),
+        }
+    }
+
+    /// Puts the scene where `placed` says (a journal's snapshot): every object it
+    /// names placed so, every other as loaded, at its version. Refused whole if it
+    /// names an object the scene lacks, a horizon out of range, or goes back in
+    /// version.
+    pub fn restore(&mut self, placed: &Placed) -> Result<(), String> {
+        let objects = self.base.scene.objects.len();
+        if let Some(&(id, _)) = placed
+            .objects
+            .iter()
+            .find(|(id, _)| *id as usize >= objects)
+        {
+            return Err(format!("object {id} of {objects}"));
+        }
+        if placed.version < self.version {
+            return Err(format!(
+                "version {} behind the scene's {}",
+                placed.version, self.version
+            ));
+        }
+        let mut now: Vec<(u32, Option<Placement>)> = (self.placements.iter().enumerate())
+            .filter(|(_, p)| p.is_some())
+            .map(|(id, _)| (id as u32, None))
+            .collect();
+        now.extend(placed.objects.iter().map(|&(id, p)| (id, Some(p))));
+        let h = placed.horizon_s;
+        if !(h.is_finite() && (0.0..=(MAX_HORIZON_MS / 1e3) as f32).contains(&h)) {
+            return Err(format!("horizon {h} s"));
+        }
+        self.place(Some(h), now);
+        self.version = placed.version;
+        Ok(())
     }
 
     /// Object `id`'s bounds at its placement now (a box around its loaded bounds

@@ -18,7 +18,9 @@ pub const MAX_HORIZON_MS: f64 = 10_000.0;
 pub const DEFAULT_HORIZON_MS: f64 = 100.0;
 
 /// Where an object is, relative to where its file put it, and how it may move.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Serialized (a journal's snapshot) with its floats as they are, so that a placement
+/// read back is the very one written.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Placement {
     /// Applied in world space to the object's loaded vertices.
     pub matrix: Mat4,
@@ -26,8 +28,23 @@ pub struct Placement {
     pub velocity: Vec3,
     /// Radians per second about its direction, about the centre of the placed bounds.
     pub angular_velocity: Vec3,
-    /// How long the motion holds, seconds (infinite: until the next update).
+    /// How long the motion holds, seconds (infinite: until the next update; `null`
+    /// when serialized, JSON having no infinity).
+    #[serde(with = "infinite_as_null")]
     pub motion_s: f32,
+}
+
+/// An `f32` that may be infinite, as JSON can hold it: `null` for +∞.
+mod infinite_as_null {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &f32, s: S) -> Result<S::Ok, S::Error> {
+        (*v != f32::INFINITY).then_some(*v).serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+        Ok(Option::<f32>::deserialize(d)?.unwrap_or(f32::INFINITY))
+    }
 }
 
 impl Placement {

@@ -17,14 +17,14 @@ use homcull_engine::camera::Camera;
 use homcull_engine::engine::Backend;
 use homcull_engine::occluders::OccluderParams;
 use homcull_engine::scene::Scene;
-use homcull_proto::{CullOptions, Method, Pose, Region};
+use homcull_proto::{CullOptions, Method, Pose};
 
 use super::context::{Report, progress};
 use super::plot::{Chart, Series};
 use super::scenes::Loaded;
 use super::targets::Target;
 use crate::percentiles::Percentiles;
-use crate::region_eyes::{Xorshift, eyes_in_ball};
+use crate::region_eyes::{Xorshift, ball_region, eyes_in_ball};
 
 /// What the regions of one radius and turn on one scene gave.
 #[derive(Debug, Clone, Default)]
@@ -161,14 +161,7 @@ fn scene_cells(
         let (radius, turn) = combos[i % combos.len()];
         let cell = &mut cells[i % combos.len()];
         let point = Camera::new(pose)?;
-        let asked = Pose {
-            region: Some(Region {
-                radius_m: Some(radius),
-                turn_deg: Some(turn),
-                ..Region::default()
-            }),
-            ..pose.clone()
-        };
+        let asked = ball_region(pose, radius, turn);
         let started = Instant::now();
         let answer = engine
             .cull(&[Camera::new(&asked)?], &hom)?

@@ -271,7 +271,7 @@ async fn client(
     let idle = Duration::from_secs(state.config.ws_idle_timeout_s.max(1));
     let liveness = Arc::new(Liveness::new());
     let writer = writer::Writer {
-        dynamics: scene.dynamics.clone(),
+        writes: scene.writes.clone(),
         may_write: choices.may_write,
         max_objects: state.config.max_transform_objects,
     };

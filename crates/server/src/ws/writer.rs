@@ -14,7 +14,7 @@
 //! Either is checked and applied as the REST route does (all or nothing). When the
 //! server has an API token, only a stream whose upgrade request carried it may write.
 
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use homcull_proto::TransformsRequest;
 use homcull_proto::frame::{Applied, ErrorCode, ErrorFrame, Frame, TransformsFrame};
@@ -22,7 +22,7 @@ use serde::Deserialize;
 
 use crate::error::ApiError;
 use crate::transforms;
-use homcull_engine::dynamic::Dynamics;
+use crate::writes::Writes;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -39,7 +39,7 @@ pub(super) fn is_update(text: &str) -> bool {
 /// What a stream may do with updates.
 #[derive(Clone)]
 pub(super) struct Writer {
-    pub(super) dynamics: Arc<Mutex<Dynamics>>,
+    pub(super) writes: Arc<Writes>,
     /// The upgrade carried the write token (or the server needs none).
     pub(super) may_write: bool,
     pub(super) max_objects: usize,
@@ -81,6 +81,8 @@ impl Writer {
                 code: match e.code {
                     "unauthorized" => ErrorCode::Unauthorized,
                     "internal" => ErrorCode::Internal,
+                    // Not on disk, not applied: worth sending again later.
+                    "state_unavailable" => ErrorCode::Overloaded,
                     _ => ErrorCode::InvalidTransform,
                 },
                 message: e.message,
@@ -98,7 +100,7 @@ impl Writer {
             ));
         }
         let applied = req.objects.len() as u32;
-        let version = transforms::apply(self.dynamics.clone(), req, self.max_objects).await?;
+        let version = transforms::apply(self.writes.clone(), req, self.max_objects).await?;
         Ok((version, applied))
     }
 }
