@@ -55,8 +55,14 @@ pub struct SceneList {
 pub struct ObjectInfo {
     pub id: u32,
     pub name: String,
-    /// World AABB `[min, max]`.
+    /// World AABB `[min, max]` where the object is now (at the list's `version`).
     pub aabb: [[f32; 3]; 2],
+    /// World AABB `[min, max]` where the scene file puts it.
+    #[serde(default)]
+    pub file_aabb: [[f32; 3]; 2],
+    /// Where a writer placed it, relative to the file (absent: as loaded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub placement: Option<ObjectPlacement>,
     pub triangles: u32,
     /// True when preprocessing selected the object as an occluder.
     pub occluder: bool,
@@ -66,10 +72,30 @@ pub struct ObjectInfo {
     pub dynamic: bool,
 }
 
+/// An object's placement as `GET /v1/scenes/{id}/objects` reports it: what a
+/// transforms entry with this `matrix`, `velocity`, `angular_velocity` and `valid_ms`
+/// would set again.
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ObjectPlacement {
+    /// Column-major affine 4×4 applied in world space to the file's vertices.
+    pub matrix: [f32; 16],
+    /// Metres per second.
+    pub velocity: [f32; 3],
+    /// Radians per second about the vector, about the centre of the placed bounds.
+    pub angular_velocity: [f32; 3],
+    /// How long the motion holds, ms (absent: until the next update).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub valid_ms: Option<f64>,
+}
+
 /// `GET /v1/scenes/{id}/objects`.
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ObjectList {
+    /// The scene version the bounds and placements belong to.
+    #[serde(default)]
+    pub version: u64,
     pub objects: Vec<ObjectInfo>,
 }
 

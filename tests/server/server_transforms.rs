@@ -59,6 +59,23 @@ async fn moved_objects_show_in_the_next_answer_and_bad_updates_change_nothing() 
         "object {} moved in front of the eye is not in the answer",
         hidden.id
     );
+    // The object table says where it is now, where the file put it, and at what
+    // version; every other object is where its file puts it.
+    let listed: ObjectList = get_json(&http, srv.url("/v1/scenes/demo/objects")).await;
+    assert_eq!(listed.version, 1);
+    let o = &listed.objects[hidden.id as usize];
+    assert_eq!(o.file_aabb, hidden.aabb);
+    let moved_by = Vec3::from(o.aabb[0]) - Vec3::from(hidden.aabb[0]);
+    assert!(moved_by.distance(shift) < 1e-2, "{moved_by} vs {shift}");
+    let placement = o.placement.as_ref().expect("its placement");
+    assert_eq!(placement.valid_ms, None, "no motion: until the next update");
+    assert!(Vec3::from_slice(&placement.matrix[12..15]).distance(shift) < 1e-2);
+    let unmoved = listed.objects.iter().filter(|o| o.id != hidden.id);
+    assert!(
+        unmoved
+            .into_iter()
+            .all(|o| o.placement.is_none() && o.aabb == o.file_aabb)
+    );
 
     // Bad updates: each its error, none applied, the version and the answer stay.
     let n = objects.objects.len();

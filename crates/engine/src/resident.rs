@@ -147,6 +147,8 @@ fn object_table(scene: &Scene, occluders: &OccluderDb) -> Vec<ObjectInfo> {
             id: o.id,
             name: o.name.clone(),
             aabb: [o.aabb.min.to_array(), o.aabb.max.to_array()],
+            file_aabb: [o.aabb.min.to_array(), o.aabb.max.to_array()],
+            placement: None,
             triangles: o.triangles(),
             occluder: occluder_set.contains(&o.id),
             dynamic: o.dynamic,

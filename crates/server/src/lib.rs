@@ -94,6 +94,7 @@ use store::Store;
         homcull_proto::WalkStart,
         homcull_proto::SceneList,
         homcull_proto::ObjectInfo,
+        homcull_proto::ObjectPlacement,
         homcull_proto::ObjectList,
         homcull_proto::CullRequest,
         homcull_proto::TransformsRequest,

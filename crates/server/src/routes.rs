@@ -13,8 +13,8 @@ use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use homcull_engine::engine::Backend;
 use homcull_proto::{
-    BatchRequest, BatchResponse, CullRequest, CullResponse, LodThresholds, ObjectList, SceneInfo,
-    SceneList,
+    BatchRequest, BatchResponse, CullRequest, CullResponse, LodThresholds, ObjectList,
+    ObjectPlacement, SceneInfo, SceneList,
 };
 use serde::Deserialize;
 
@@ -234,15 +234,34 @@ pub async fn get_scene(
     Ok(Json(state.scene(&id)?.info.clone()))
 }
 
-/// The object table: id, name, world AABB, triangles, occluder flag.
+/// The object table: id, name, world AABB where each object is now and where its file
+/// puts it, its placement, triangles, occluder flag; all at the `version` it names.
 #[utoipa::path(get, path = "/v1/scenes/{id}/objects", params(("id" = String, Path, description = "scene id")),
     responses((status = 200, body = ObjectList), (status = 404, body = homcull_proto::ErrorBody)))]
 pub async fn list_objects(
     State(state): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<ObjectList>, ApiError> {
+    let scene = state.scene(&id)?;
+    let mut objects = scene.objects.clone();
+    let placed = scene.placements();
+    let moved = placed.placed();
+    for (id, p) in &moved.objects {
+        let Some(o) = objects.get_mut(*id as usize) else {
+            continue;
+        };
+        let now = placed.bounds(*id);
+        o.aabb = [now.min.to_array(), now.max.to_array()];
+        o.placement = Some(ObjectPlacement {
+            matrix: p.matrix.to_cols_array(),
+            velocity: p.velocity.to_array(),
+            angular_velocity: p.angular_velocity.to_array(),
+            valid_ms: p.motion_s.is_finite().then(|| f64::from(p.motion_s) * 1e3),
+        });
+    }
     Ok(Json(ObjectList {
-        objects: state.scene(&id)?.objects.clone(),
+        version: moved.version,
+        objects,
     }))
 }
 
