@@ -79,7 +79,7 @@ pub struct Journal {
 
 impl StateDir {
     /// Opens (creating) `DATA/state` and takes its lock; an error if another live
-    /// server holds it for [`LOCK_WAIT`] (a restart may start before the old process
+    /// server holds it for 5 s (`LOCK_WAIT`: a restart may start before the old process
     /// has exited).
     pub fn open(data_dir: &Path) -> std::io::Result<StateDir> {
         let root = data_dir.join("state");

@@ -13,8 +13,8 @@ use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use homcull_engine::engine::Backend;
 use homcull_proto::{
-    BatchRequest, BatchResponse, CullRequest, CullResponse, LodThresholds, ObjectList,
-    ObjectPlacement, SceneInfo, SceneList,
+    BatchRequest, BatchResponse, CullRequest, CullResponse, LodThresholds, ObjectList, SceneInfo,
+    SceneList,
 };
 use serde::Deserialize;
 
@@ -242,27 +242,7 @@ pub async fn list_objects(
     State(state): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<ObjectList>, ApiError> {
-    let scene = state.scene(&id)?;
-    let mut objects = scene.objects.clone();
-    let placed = scene.placements();
-    let moved = placed.placed();
-    for (id, p) in &moved.objects {
-        let Some(o) = objects.get_mut(*id as usize) else {
-            continue;
-        };
-        let now = placed.bounds(*id);
-        o.aabb = [now.min.to_array(), now.max.to_array()];
-        o.placement = Some(ObjectPlacement {
-            matrix: p.matrix.to_cols_array(),
-            velocity: p.velocity.to_array(),
-            angular_velocity: p.angular_velocity.to_array(),
-            valid_ms: p.motion_s.is_finite().then(|| f64::from(p.motion_s) * 1e3),
-        });
-    }
-    Ok(Json(ObjectList {
-        version: moved.version,
-        objects,
-    }))
+    Ok(Json(state.scene(&id)?.object_list()))
 }
 
 /// The scene as GLB, for clients to draw (object IDs = mesh-bearing nodes in depth-first order).

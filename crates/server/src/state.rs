@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 
-use homcull_proto::{ObjectInfo, SceneInfo};
+use homcull_proto::{ObjectInfo, ObjectList, ObjectPlacement, SceneInfo};
 use tokio::sync::watch;
 
 use super::config::Config;
@@ -117,6 +117,32 @@ impl SceneEntry {
             }),
             dynamics,
             engine: Arc::new(Mutex::new(resident.engine)),
+        }
+    }
+
+    /// The object table (`GET /v1/scenes/{id}/objects`): each object's bounds where it
+    /// is now and where its file puts it, and its placement, all at the version the
+    /// table names (read under one lock of the placements).
+    pub fn object_list(&self) -> ObjectList {
+        let mut objects = self.objects.clone();
+        let placed = self.placements();
+        let moved = placed.placed();
+        for (id, p) in &moved.objects {
+            let Some(o) = objects.get_mut(*id as usize) else {
+                continue;
+            };
+            let now = placed.bounds(*id);
+            o.aabb = [now.min.to_array(), now.max.to_array()];
+            o.placement = Some(ObjectPlacement {
+                matrix: p.matrix.to_cols_array(),
+                velocity: p.velocity.to_array(),
+                angular_velocity: p.angular_velocity.to_array(),
+                valid_ms: p.motion_s.is_finite().then(|| f64::from(p.motion_s) * 1e3),
+            });
+        }
+        ObjectList {
+            version: moved.version,
+            objects,
         }
     }
 

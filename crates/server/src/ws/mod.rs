@@ -2,8 +2,8 @@
 //!
 //! The server sends a hello frame, then answers poses with full or delta frames
 //! (binary, `homcull_proto::frame`). Each client has two tasks:
-//! - the reader decodes poses (binary pose frames or JSON text [`PoseMessage`]) and
-//!   puts each into a one-slot mailbox, replacing any pose still waiting there:
+//! - the reader ([`reader`]) decodes poses (binary pose frames or JSON text
+//!   [`PoseMessage`]) and puts each into a one-slot mailbox, replacing any pose still waiting there:
 //!   **latest pose wins**, superseded poses are dropped and counted, never queued;
 //! - the sender takes the mailbox's pose when the previous answer is out (and no
 //!   sooner than the frame-rate cap allows), sends it to the cull worker, and writes a
@@ -29,6 +29,7 @@
 mod frames;
 mod liveness;
 mod placements;
+mod reader;
 mod region;
 mod sink;
 mod writer;
@@ -48,13 +49,13 @@ use homcull_proto::{CullOptions, CullOptionsQuery, PROTOCOL_VERSION, Pose, Surfa
 use serde::Deserialize;
 use tokio::sync::{Mutex, Notify, mpsc};
 
-use frames::{Sent, frame_stats, parse_frame, parse_text, smoothed, visibility_frame};
+use frames::{Sent, frame_stats, smoothed, visibility_frame};
 use liveness::{Liveness, Tick};
 use sink::{send, send_text};
 
 use super::error::ApiError;
 use super::listen::{AddressSlot, ConnectionSlot};
-use super::motion::{HeldSet, MAX_HOLD_MS, MAX_LOOKAHEAD_MS, MotionEstimator, moved};
+use super::motion::{HeldSet, MAX_HOLD_MS, MAX_LOOKAHEAD_MS, moved};
 use super::state::{AppState, SceneEntry, WsClientSlot};
 use homcull_engine::camera::Camera;
 use homcull_engine::camera::stereo;
@@ -236,7 +237,7 @@ async fn client(
 ) {
     let seen_first = choices.seen_first;
     let mut told = choices.placements.then(placements::Told::default);
-    let (sink, mut incoming) = socket.split();
+    let (sink, incoming) = socket.split();
     let sink = Arc::new(Mutex::new(sink));
     let send_timeout = Duration::from_secs(state.config.ws_send_timeout_s);
     // The server's frame counter for this client, shared with the reader (which
@@ -275,84 +276,19 @@ async fn client(
         may_write: choices.may_write,
         max_objects: state.config.max_transform_objects,
     };
-    let reader = {
-        let mailbox = mailbox.clone();
-        let liveness = liveness.clone();
-        let sink = sink.clone();
-        let counter = counter.clone();
-        tokio::spawn(async move {
-            let mut bad = 0u32;
-            let mut motion = MotionEstimator::default();
-            let mut idle_at = tokio::time::Instant::now() + idle;
-            let end = loop {
-                let msg = match tokio::time::timeout_at(idle_at, incoming.next()).await {
-                    Err(_) => break ReaderEnd::Idle,
-                    Ok(None) => break ReaderEnd::Gone,
-                    Ok(Some(msg)) => msg,
-                };
-                let parsed = match msg {
-                    Ok(Message::Binary(b)) => {
-                        let decoded = Frame::decode(&b);
-                        if let Ok(Frame::Transforms(t)) = &decoded {
-                            idle_at = tokio::time::Instant::now() + idle;
-                            bad = 0;
-                            let seq = counter.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
-                            let reply = writer.apply_frame(seq, t).await;
-                            if send(&sink, reply, send_timeout).await.is_err() {
-                                break ReaderEnd::Gone;
-                            }
-                            continue;
-                        }
-                        parse_frame(decoded)
-                    }
-                    Ok(Message::Text(t)) if writer::is_update(&t) => {
-                        idle_at = tokio::time::Instant::now() + idle;
-                        let (reply, malformed) = writer.apply(&t).await;
-                        bad = if malformed { bad + 1 } else { 0 };
-                        if send_text(&sink, "transforms", reply, send_timeout)
-                            .await
-                            .is_err()
-                        {
-                            break ReaderEnd::Gone;
-                        }
-                        if bad >= MAX_BAD_MESSAGES {
-                            break ReaderEnd::TooManyBad;
-                        }
-                        continue;
-                    }
-                    Ok(Message::Text(t)) => parse_text(&t),
-                    Ok(Message::Close(_)) => break ReaderEnd::ClientClosed,
-                    Ok(Message::Pong(_)) => {
-                        liveness.ponged();
-                        continue;
-                    }
-                    // The library reports an over-long message or frame only by its text.
-                    Err(e) if e.to_string().contains("too long") => break ReaderEnd::TooLong,
-                    Err(_) => break ReaderEnd::Gone,
-                    Ok(_) => continue, // ping/pong are answered by the library
-                };
-                idle_at = tokio::time::Instant::now() + idle;
-                match parsed {
-                    Ok(mut p) => {
-                        bad = 0;
-                        motion.observe(Instant::now(), Vec3::from(p.pose.position));
-                        p.velocity = motion.velocity();
-                        mailbox.put(p);
-                    }
-                    Err(e) => {
-                        bad += 1;
-                        metrics::counter!("homcull_ws_bad_frames_total").increment(1);
-                        // A full error channel means the client is not reading: drop the report.
-                        let _ = err_tx.try_send(e);
-                        if bad >= MAX_BAD_MESSAGES {
-                            break ReaderEnd::TooManyBad;
-                        }
-                    }
-                }
-            };
-            (end, incoming)
-        })
-    };
+    let reader = tokio::spawn(reader::read(
+        incoming,
+        reader::Reader {
+            mailbox: mailbox.clone(),
+            liveness: liveness.clone(),
+            sink: sink.clone(),
+            counter: counter.clone(),
+            writer,
+            err_tx,
+            idle,
+            send_timeout,
+        },
+    ));
 
     let min_interval = Duration::from_secs_f64(1.0 / state.config.ws_max_fps.max(0.1));
     let mut last_started: Option<Instant> = None;
@@ -568,33 +504,6 @@ async fn client(
                     break;
                 }
             }
-        }
-    }
-}
-
-/// Why a client's reader stopped.
-enum ReaderEnd {
-    /// The client sent a close frame.
-    ClientClosed,
-    /// The connection ended or failed.
-    Gone,
-    /// Nothing arrived for the idle timeout.
-    Idle,
-    /// A message over [`MAX_CLIENT_MESSAGE`].
-    TooLong,
-    /// [`MAX_BAD_MESSAGES`] malformed messages in a row.
-    TooManyBad,
-}
-
-impl ReaderEnd {
-    /// The close frame to send, if the connection can still take one.
-    fn close(self) -> Option<(u16, &'static str)> {
-        match self {
-            ReaderEnd::ClientClosed => Some((1000, "bye")),
-            ReaderEnd::Gone => None,
-            ReaderEnd::Idle => Some((1008, "idle for too long")),
-            ReaderEnd::TooLong => Some((1009, "message too big")),
-            ReaderEnd::TooManyBad => Some((1008, "too many malformed messages")),
         }
     }
 }
