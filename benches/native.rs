@@ -17,6 +17,8 @@
 //!   masked map (`native::masked`, `MaskedBackend`) against the per-pixel map, the
 //!   whole pose after planning (with `--features experimental`).
 
+mod common;
+
 use std::sync::OnceLock;
 
 use divan::Bencher;
@@ -28,7 +30,6 @@ use homcull::core::native::map::OcclusionMap;
 use homcull::core::native::masked::{MaskedBackend, MaskedMap};
 use homcull::core::occluders::OccluderParams;
 use homcull::core::sampler::PoseSampler;
-use homcull::core::scene::{demo_city, load_path};
 use homcull_proto::{CullOptions, Method, Pose, Stereo};
 
 /// The shared scenes MOC was measured on, and the built-in demo city (what `homcull
@@ -54,16 +55,10 @@ struct Bench {
 fn scene(name: &str) -> &'static Bench {
     static ALL: OnceLock<Vec<(String, Bench)>> = OnceLock::new();
     let all = ALL.get_or_init(|| {
-        let dir = std::env::var("HOMCULL_SCENES").unwrap_or_else(|_| "../shared/scenes".into());
         SCENES
             .iter()
             .map(|&n| {
-                let scene = if n == "demo" {
-                    demo_city()
-                } else {
-                    let path = std::path::Path::new(&dir).join(format!("{n}.glb"));
-                    load_path(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-                };
+                let scene = common::scene_named(n);
                 let sampled = PoseSampler::new(&scene).sample(POSES, 1, [960, 540], &|_| true);
                 let cams = sampled
                     .poses

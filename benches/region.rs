@@ -8,6 +8,8 @@
 //! - `pose`: the whole region answer (`region::cull`: candidates, maps, box tests),
 //!   beside `point`, the same poses culled as points by the native backend.
 
+mod common;
+
 use std::sync::OnceLock;
 
 use divan::Bencher;
@@ -17,8 +19,8 @@ use homcull::core::native::NativeBackend;
 use homcull::core::occluders::OccluderParams;
 use homcull::core::region;
 use homcull::core::sampler::PoseSampler;
-use homcull::core::scene::{demo_city, load_path};
-use homcull_proto::{CullOptions, Method, Pose, Region};
+use homcull::eval::region_eyes::ball_region;
+use homcull_proto::{CullOptions, Method};
 
 const SCENES: &[&str] = &["demo", "munich", "oa_dm1"];
 const POSES: usize = 8;
@@ -42,16 +44,10 @@ struct Bench {
 fn scene(name: &str) -> &'static Bench {
     static ALL: OnceLock<Vec<(String, Bench)>> = OnceLock::new();
     let all = ALL.get_or_init(|| {
-        let dir = std::env::var("HOMCULL_SCENES").unwrap_or_else(|_| "../shared/scenes".into());
         SCENES
             .iter()
             .map(|&n| {
-                let scene = if n == "demo" {
-                    demo_city()
-                } else {
-                    let path = std::path::Path::new(&dir).join(format!("{n}.glb"));
-                    load_path(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-                };
+                let scene = common::scene_named(n);
                 let sampled = PoseSampler::new(&scene).sample(POSES, 1, [960, 540], &|_| true);
                 let points = sampled
                     .poses
@@ -61,17 +57,7 @@ fn scene(name: &str) -> &'static Bench {
                 let regions = sampled
                     .poses
                     .iter()
-                    .map(|p| {
-                        let asked = Pose {
-                            region: Some(Region {
-                                radius_m: Some(0.5),
-                                turn_deg: Some(10.0),
-                                ..Region::default()
-                            }),
-                            ..p.clone()
-                        };
-                        Camera::new(&asked).unwrap()
-                    })
+                    .map(|p| Camera::new(&ball_region(p, 0.5, 10.0)).unwrap())
                     .collect();
                 let prep = PreparedScene::new(scene, OccluderParams::default());
                 prep.edge_neighbours();

@@ -35,6 +35,12 @@ for part in "${parts[@]}"; do
     regions)
       cargo build --release 2>&1 | quiet
       "$bin" report --backend cpu --sections regions --out "$rel/regions" 2> "$out/regions/progress.txt" ;;
+    regions-lavapipe)
+      # The same on the wgpu backend (Mesa's lavapipe): region answers run on the CPU
+      # on every backend; the point answers beside them on the adapter.
+      cargo build --release 2>&1 | quiet
+      "$bin" report --backend gpu --sections regions --out "$rel/regions-lavapipe" \
+        2> "$out/regions-lavapipe/progress.txt" ;;
     walk)
       # The delayed walk on the demo street and on munich from its walk start.
       cargo build --release 2>&1 | quiet

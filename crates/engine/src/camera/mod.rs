@@ -229,6 +229,11 @@ impl Camera {
         -self.view.row(2).truncate().normalize()
     }
 
+    /// The view's up direction in world space (unit).
+    pub fn up(&self) -> Vec3 {
+        self.view.row(1).truncate().normalize()
+    }
+
     /// Conservative frustum test: false only if the box lies wholly outside one plane.
     /// (Many boxes against one camera: [`Camera::frustum_planes`], the same answers.)
     pub fn intersects(&self, b: &Aabb) -> bool {

@@ -225,11 +225,6 @@ fn half_tangents(cam: &Camera) -> (f32, f32) {
     ((1.0 + cam.shift.abs()) / cam.scale[0], 1.0 / cam.scale[1])
 }
 
-/// The camera's forward and up directions in world space.
-fn axes(cam: &Camera) -> (Vec3, Vec3) {
-    (cam.forward(), cam.view.row(1).truncate().normalize())
-}
-
 /// Objects that some eye of the region may have in view, ascending, and the frustum
 /// that holds every eye's where there is one: a square pyramid whose half-angle is the
 /// pose's half-diagonal plus the turn, its apex set back so that each side plane
@@ -247,7 +242,7 @@ fn candidates(prep: &PreparedScene, cam: &Camera, region: &Region) -> (Vec<u32>,
         };
         return (ids.filter(near_ball).collect(), None);
     }
-    let (forward, up) = axes(cam);
+    let (forward, up) = (cam.forward(), cam.up());
     let back = region.radius / half.sin();
     let apex = region.centre - forward * back;
     let union = Camera::from_view(
@@ -311,7 +306,7 @@ pub fn map_cameras(cam: &Camera, region: &Region) -> Vec<Camera> {
         )
     };
     if !region.all_directions && hx <= limit && hy <= limit {
-        let (forward, up) = axes(cam);
+        let (forward, up) = (cam.forward(), cam.up());
         return vec![camera(look_at_rh(centre, centre + forward, up), hx, hy)];
     }
     CUBE_FACES

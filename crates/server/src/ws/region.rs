@@ -157,7 +157,7 @@ impl Held {
         horizon: Option<Duration>,
     ) -> Self {
         let spec = asked.region.unwrap_or_default();
-        let (forward, up) = axes(eye);
+        let (forward, up) = (eye.forward(), eye.up());
         Held {
             frame: RegionFrame {
                 seq,
@@ -195,7 +195,7 @@ impl Held {
         let Some(eye) = p.eyes.first() else {
             return false;
         };
-        let (forward, up) = axes(eye);
+        let (forward, up) = (eye.forward(), eye.up());
         let turned = if f.turn_deg == 0.0 {
             // No turn: the very view the region was culled for.
             (forward, up) == (self.forward, self.up)
@@ -225,11 +225,6 @@ impl Held {
         };
         visibility_frame(seq, ack, stats, held, held, want_full)
     }
-}
-
-/// A camera's forward and up directions in world space.
-fn axes(cam: &Camera) -> (Vec3, Vec3) {
-    (cam.forward(), cam.view.row(1).truncate().normalize())
 }
 
 #[cfg(test)]
