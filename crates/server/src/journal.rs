@@ -53,11 +53,11 @@ struct Snapshot {
     placed: Placed,
 }
 
-/// One line of a journal's log.
+/// One line of a journal's log (the update borrowed when written, owned when read).
 #[derive(Debug, Serialize, Deserialize)]
-struct Entry {
+struct Entry<U> {
     version: u64,
-    update: TransformsRequest,
+    update: U,
 }
 
 /// What a scene's journal held when it was opened: the placements to restore and
@@ -90,16 +90,16 @@ impl StateDir {
             .write(true)
             .open(root.join("lock"))?;
         let deadline = std::time::Instant::now() + LOCK_WAIT;
-        while !try_lock(&lock) && std::time::Instant::now() < deadline {
-            std::thread::sleep(std::time::Duration::from_millis(100));
-        }
-        if !try_lock(&lock) {
-            return Err(std::io::Error::other(format!(
-                "another homcull server keeps its placement journal in {}: run one server \
+        while !try_lock(&lock) {
+            if std::time::Instant::now() >= deadline {
+                return Err(std::io::Error::other(format!(
+                    "another homcull server keeps its placement journal in {}: run one server \
                  per data dir with --state journal, or --state memory for replicas that \
                  share it",
-                root.display()
-            )));
+                    root.display()
+                )));
+            }
+            std::thread::sleep(std::time::Duration::from_millis(100));
         }
         Ok(StateDir { root, _lock: lock })
     }
@@ -116,39 +116,32 @@ impl StateDir {
             Err(e) => return Err(e),
         };
         let log_path = dir.join("log.jsonl");
-        let (updates, clean) = read_log(&log_path)?;
-        let fresh = |version| Placed {
-            version,
-            horizon_s: Placed::default_horizon_s(),
-            objects: Vec::new(),
-        };
+        // The updates after the snapshot, one by one, and the length of the log that
+        // holds just them (and older ones the snapshot has).
+        let after = old.as_ref().map_or(0, |s| s.placed.version);
+        let (updates, replayable) = consecutive(after, read_log(&log_path)?);
+        let reached = updates.last().map_or(after, |u| u.0);
         let (recovered, rewrite) = match old {
-            Some(s) if s.content == content => {
-                let after = s.placed.version;
-                let updates = consecutive(after, updates);
-                (
-                    Recovered {
-                        placed: s.placed,
-                        updates,
-                    },
-                    false,
-                )
-            }
+            Some(s) if s.content == content => (
+                Recovered {
+                    placed: s.placed,
+                    updates,
+                },
+                false,
+            ),
             // Written for another content (or never): start from the file, and never
             // at a lower version than the old journal reached.
-            other => {
-                let reached = other.map_or(0, |s| {
-                    let last = consecutive(s.placed.version, updates).last().map(|u| u.0);
-                    last.unwrap_or(s.placed.version)
-                });
-                (
-                    Recovered {
-                        placed: fresh(reached),
-                        updates: Vec::new(),
+            _ => (
+                Recovered {
+                    placed: Placed {
+                        version: reached,
+                        horizon_s: Placed::default_horizon_s(),
+                        objects: Vec::new(),
                     },
-                    true,
-                )
-            }
+                    updates: Vec::new(),
+                },
+                true,
+            ),
         };
         let log = OpenOptions::new()
             .create(true)
@@ -164,10 +157,11 @@ impl StateDir {
         if rewrite {
             journal.compact(&recovered.placed)?;
         } else {
-            // A torn last line (a crash mid-append) is cut off; appends go after the
-            // last whole entry.
-            journal.log.set_len(clean)?;
-            journal.log.seek(std::io::SeekFrom::Start(clean))?;
+            // What replay did not take (a torn last line from a crash mid-append, or
+            // whatever follows a gap) is cut off, so that appends follow the last
+            // update replayed and the next replay reaches them.
+            journal.log.set_len(replayable)?;
+            journal.log.seek(std::io::SeekFrom::Start(replayable))?;
         }
         Ok((journal, recovered))
     }
@@ -184,11 +178,8 @@ impl StateDir {
 impl Journal {
     /// Appends update `update`, to be applied as `version`, and flushes it to disk.
     pub fn append(&mut self, version: u64, update: &TransformsRequest) -> std::io::Result<()> {
-        let mut line = serde_json::to_vec(&Entry {
-            version,
-            update: update.clone(),
-        })
-        .map_err(std::io::Error::other)?;
+        let mut line =
+            serde_json::to_vec(&Entry { version, update }).map_err(std::io::Error::other)?;
         line.push(b'\n');
         self.log.write_all(&line)?;
         self.log.sync_data()?;
@@ -246,14 +237,14 @@ pub fn content_of(scene: &Scene) -> String {
     h.finalize().iter().map(|b| format!("{b:02x}")).collect()
 }
 
-/// The log's whole entries in order, and the length of the file up to the last one.
-fn read_log(path: &Path) -> std::io::Result<(Vec<(u64, TransformsRequest)>, u64)> {
+/// The log's whole entries in order, each with the offset just past its line.
+fn read_log(path: &Path) -> std::io::Result<Vec<(u64, TransformsRequest, u64)>> {
     let file = match File::open(path) {
         Ok(f) => f,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok((Vec::new(), 0)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
         Err(e) => return Err(e),
     };
-    let (mut entries, mut clean) = (Vec::new(), 0u64);
+    let (mut entries, mut end) = (Vec::new(), 0u64);
     let mut reader = BufReader::new(file);
     let mut line = Vec::new();
     loop {
@@ -262,30 +253,28 @@ fn read_log(path: &Path) -> std::io::Result<(Vec<(u64, TransformsRequest)>, u64)
         if n == 0 || line.last() != Some(&b'\n') {
             break; // the end, or a torn last line
         }
-        match serde_json::from_slice::<Entry>(&line) {
-            Ok(e) => entries.push((e.version, e.update)),
+        end += n as u64;
+        match serde_json::from_slice::<Entry<TransformsRequest>>(&line) {
+            Ok(e) => entries.push((e.version, e.update, end)),
             Err(e) => {
                 tracing::warn!(path = %path.display(), "a journal line does not parse ({e}); replay stops there");
                 break;
             }
         }
-        clean += n as u64;
     }
-    Ok((entries, clean))
+    Ok(entries)
 }
 
 /// The updates that follow version `after` one by one (older ones are in the
-/// snapshot already; a gap ends the run).
+/// snapshot already; a gap ends the run), and the length of the log up to the last
+/// entry taken or passed over.
 fn consecutive(
     after: u64,
-    updates: Vec<(u64, TransformsRequest)>,
-) -> Vec<(u64, TransformsRequest)> {
-    let mut next = after + 1;
+    entries: Vec<(u64, TransformsRequest, u64)>,
+) -> (Vec<(u64, TransformsRequest)>, u64) {
+    let (mut next, mut end) = (after + 1, 0);
     let mut out = Vec::new();
-    for (v, u) in updates {
-        if v < next {
-            continue;
-        }
+    for (v, u, line_end) in entries {
         if v > next {
             tracing::warn!(
                 expected = next,
@@ -294,10 +283,13 @@ fn consecutive(
             );
             break;
         }
-        out.push((v, u));
-        next += 1;
+        if v == next {
+            out.push((v, u));
+            next += 1;
+        }
+        end = line_end;
     }
-    out
+    (out, end)
 }
 
 fn invalid(e: serde_json::Error) -> std::io::Error {
@@ -352,6 +344,26 @@ mod tests {
         assert_eq!(versions, [1, 2]);
         assert_eq!(rec.updates[1].1, update(2, 2.0));
         // The torn line is gone: the next append follows the last whole one.
+        j.append(3, &update(1, 3.0)).unwrap();
+        drop(j);
+        let (_, rec) = state.journal("s", "c1").unwrap();
+        assert_eq!(
+            rec.updates.iter().map(|u| u.0).collect::<Vec<_>>(),
+            [1, 2, 3]
+        );
+    }
+
+    #[test]
+    fn what_follows_a_gap_is_cut_so_that_new_updates_replay() {
+        let dir = tempfile::tempdir().unwrap();
+        let state = StateDir::open(dir.path()).unwrap();
+        let (mut j, _) = state.journal("s", "c1").unwrap();
+        for v in [1, 2, 4] {
+            j.append(v, &update(1, v as f32)).unwrap();
+        }
+        drop(j);
+        let (mut j, rec) = state.journal("s", "c1").unwrap();
+        assert_eq!(rec.updates.iter().map(|u| u.0).collect::<Vec<_>>(), [1, 2]);
         j.append(3, &update(1, 3.0)).unwrap();
         drop(j);
         let (_, rec) = state.journal("s", "c1").unwrap();
