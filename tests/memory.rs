@@ -11,8 +11,9 @@
 
 mod common;
 
-use std::process::Child;
 use std::time::{Duration, Instant};
+
+use common::process::ServeProcess;
 
 /// Allowed growth per scene, as a multiple of its GLB.
 const MAX_GLB_MULTIPLE: f64 = 4.0;
@@ -21,26 +22,13 @@ const MAX_GLB_MULTIPLE: f64 = 4.0;
 /// for the sum over all scenes, which must stay within the multiple on its own.
 const RSS_NOISE_BYTES: f64 = 1024.0 * 1024.0;
 
-struct Server {
-    child: Child,
-    addr: String,
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-fn start(data_dir: &std::path::Path) -> Server {
+fn start(data_dir: &std::path::Path) -> ServeProcess {
     let mut args = vec!["--no-demo", "--rescan-s", "0", "--data-dir"]
         .into_iter()
         .map(std::ffi::OsString::from)
         .collect::<Vec<_>>();
     args.push(data_dir.as_os_str().to_owned());
-    let (child, addr) = common::process::spawn_serve(args);
-    Server { child, addr }
+    common::process::spawn_serve(args)
 }
 
 fn rss_bytes(pid: u32) -> u64 {
@@ -55,7 +43,7 @@ fn rss_bytes(pid: u32) -> u64 {
 }
 
 /// Uploads a GLB; returns the scene's id and the GLB's size.
-async fn upload(http: &reqwest::Client, s: &Server, path: &std::path::Path) -> (String, u64) {
+async fn upload(http: &reqwest::Client, s: &ServeProcess, path: &std::path::Path) -> (String, u64) {
     let glb = std::fs::read(path).unwrap();
     let name = path.file_stem().unwrap().to_string_lossy();
     let r = http

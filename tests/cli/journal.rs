@@ -3,21 +3,15 @@
 //! them, and a journal that cannot be read refuses updates instead of losing them.
 
 use std::path::Path;
-use std::process::Child;
 use std::time::Duration;
+
+use crate::common::process::{ServeProcess, spawn_serve};
 
 use serde_json::{Value, json};
 
 struct Server {
-    child: Child,
+    process: ServeProcess,
     base: String,
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
 }
 
 impl Server {
@@ -36,10 +30,10 @@ impl Server {
         .map(Into::into)
         .collect();
         args.push(data_dir.as_os_str().to_owned());
-        let (child, addr) = crate::common::process::spawn_serve(args);
+        let process = spawn_serve(args);
         let s = Server {
-            child,
-            base: format!("http://{addr}"),
+            base: format!("http://{}", process.addr),
+            process,
         };
         let http = reqwest::Client::new();
         for _ in 0..600 {
@@ -54,8 +48,8 @@ impl Server {
 
     /// `kill -9`: no shutdown, no flush.
     fn kill(mut self) {
-        self.child.kill().unwrap();
-        self.child.wait().unwrap();
+        self.process.child.kill().unwrap();
+        self.process.child.wait().unwrap();
     }
 
     async fn post(&self, path: &str, body: Value) -> (u16, Value) {

@@ -9,6 +9,15 @@ use std::process::Command;
 
 const PNG_SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n'];
 
+/// The row of the targets table naming `what` is there and says it is met.
+fn assert_met(targets: &str, what: &str) {
+    let row = targets
+        .lines()
+        .find(|l| l.contains(what))
+        .unwrap_or_else(|| panic!("targets lack `{what}`: {targets}"));
+    assert!(row.ends_with("| yes |"), "{row}");
+}
+
 #[test]
 fn quick_report_writes_markdown_and_plots() {
     // GPU rules of the other tests: skip without an adapter unless HOMCULL_REQUIRE_GPU=1.
@@ -172,16 +181,8 @@ fn quick_report_writes_markdown_and_plots() {
         ),
         "{targets}"
     );
-    let zero = targets
-        .lines()
-        .find(|l| l.contains("false culls of every HOM variant"))
-        .unwrap();
-    assert!(zero.ends_with("| yes |"), "{zero}");
-    let cpu_zero = targets
-        .lines()
-        .find(|l| l.contains("false culls of the CPU backend (hom-refine)"))
-        .expect("the CPU backend's conservativeness target");
-    assert!(cpu_zero.ends_with("| yes |"), "{cpu_zero}");
+    assert_met(targets, "false culls of every HOM variant");
+    assert_met(targets, "false culls of the CPU backend (hom-refine)");
     let mut measured = vec!["batches of 64 ÷ single", "round trip − in-process"];
     if scenes.is_some() {
         measured.push("hom efficiency on the city and game-map scenes");
@@ -196,11 +197,7 @@ fn quick_report_writes_markdown_and_plots() {
             "pixels the oracle shows where the map's PVS says nothing can be seen = 0",
             "objects the oracle sees that the map's PVS rules out, unexplained = 0",
         ] {
-            let row = targets
-                .lines()
-                .find(|l| l.contains(what))
-                .unwrap_or_else(|| panic!("targets lack `{what}`: {targets}"));
-            assert!(row.ends_with("| yes |"), "{row}");
+            assert_met(targets, what);
         }
     }
 
@@ -253,11 +250,10 @@ fn quick_report_writes_markdown_and_plots() {
         );
     }
     assert!(sweep.contains("| point | – |"), "{sweep}");
-    let region_target = targets
-        .lines()
-        .find(|l| l.contains("objects an eye of a region sees that its answer lacks"))
-        .expect("the regions target");
-    assert!(region_target.ends_with("| yes |"), "{region_target}");
+    assert_met(
+        targets,
+        "objects an eye of a region sees that its answer lacks",
+    );
 
     // Every plot the report links exists and is a PNG.
     let pngs: Vec<&str> = md

@@ -6,9 +6,23 @@ use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
-/// Starts `homcull serve --addr 127.0.0.1:0 ARGS…` and returns the child and the
-/// `host:port` it prints once it listens (the rest of its log is read and dropped).
-pub fn spawn_serve<I, S>(args: I) -> (Child, String)
+/// A `homcull serve` child process, killed (and reaped) when dropped.
+pub struct ServeProcess {
+    pub child: Child,
+    /// `host:port` it listens on.
+    pub addr: String,
+}
+
+impl Drop for ServeProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Starts `homcull serve --addr 127.0.0.1:0 ARGS…`; returns once it printed the
+/// address it listens on (the rest of its log is read and dropped).
+pub fn spawn_serve<I, S>(args: I) -> ServeProcess
 where
     I: IntoIterator<Item = S>,
     S: AsRef<OsStr>,
@@ -35,5 +49,5 @@ where
     let addr = rx
         .recv_timeout(Duration::from_secs(60))
         .expect("the server prints its address");
-    (child, addr)
+    ServeProcess { child, addr }
 }

@@ -1,11 +1,12 @@
 //! A delayed walk (`homcull loadgen --mode walk`): one client walks the demo city's
-//! street (or another scene from its walk start, [`WalkPath`]) at 1.4 m/s, its view swinging up to 30°/s, drawing at 60 frames/s whatever
-//! the server answers, its messages delayed each way (the client delays its own sends
-//! and receipts: loopback only). Afterwards every drawn frame is checked against the
-//! exact oracle at its pose: a *late reveal* is an object the oracle sees there that the
-//! set the client held at that moment lacks. On a region stream (`region`) the frames
-//! drawn outside the region their set was announced for are counted too, and the culls
-//! are the region frames; on a point stream every answered pose is a cull.
+//! street (or another scene from its walk start, [`WalkPath`]) at 1.4 m/s, its view
+//! swinging up to 30°/s, drawing at 60 frames/s whatever the server answers, its
+//! messages delayed each way (the client delays its own sends and receipts: loopback
+//! only). Afterwards every drawn frame is checked against the exact oracle at its pose:
+//! a *late reveal* is an object the oracle sees there that the set the client held at
+//! that moment lacks. On a region stream (`region`) the frames drawn outside the region
+//! their set was announced for are counted too, and the culls are the region frames; on
+//! a point stream every answered pose is a cull.
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

@@ -63,9 +63,8 @@ pub struct SceneEntry {
     pub read_only: bool,
     /// Culled on by the worker's jobs, which hold it, not this entry.
     pub engine: SharedEngine,
-    /// Where writers move the scene's objects (the engine follows when it culls).
-    pub dynamics: Arc<Mutex<Dynamics>>,
-    /// The writers' way in: the same placements, and how updates are kept.
+    /// Where writers move the scene's objects (the engine follows when it culls), and
+    /// how their updates are kept.
     pub writes: Arc<Writes>,
 }
 
@@ -74,7 +73,10 @@ impl SceneEntry {
     /// [`Dynamics::bounds`] gives an object's world bounds where it is placed (the
     /// object table gives them as loaded). Not to be held across an await.
     pub fn placements(&self) -> std::sync::MutexGuard<'_, Dynamics> {
-        self.dynamics.lock().unwrap_or_else(|p| p.into_inner())
+        self.writes
+            .dynamics
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
     }
 
     /// The entry of a scene already assembled (the slow part, see [`assemble`]), its
@@ -112,10 +114,9 @@ impl SceneEntry {
             glb,
             read_only,
             writes: Arc::new(Writes {
-                dynamics: dynamics.clone(),
+                dynamics,
                 durability,
             }),
-            dynamics,
             engine: Arc::new(Mutex::new(resident.engine)),
         }
     }

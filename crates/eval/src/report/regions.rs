@@ -46,6 +46,20 @@ struct Cell {
 }
 
 impl Cell {
+    /// The cells summed (one scene's regions of every radius and turn).
+    fn total(cells: &[Cell]) -> Cell {
+        cells.iter().fold(Cell::default(), |mut a, c| {
+            a.regions += c.regions;
+            a.eyes += c.eyes;
+            a.missed += c.missed;
+            (a.kept, a.seen) = (a.kept + c.kept, a.seen + c.seen);
+            a.point_kept += c.point_kept;
+            a.point_seen += c.point_seen;
+            a.ms.extend(&c.ms);
+            a
+        })
+    }
+
     fn per_frame(&self) -> f64 {
         self.kept as f64 / self.seen.max(1) as f64
     }
@@ -80,19 +94,12 @@ pub(super) fn section(r: &mut Report, scenes: &[Loaded]) -> Result<()> {
         p.region_poses, p.region_radii, p.region_turns, p.viewport[0], p.viewport[1], p.region_eyes
     );
     let mut per_scene: Vec<(String, Vec<Cell>)> = Vec::new();
+    // Each scene's cells summed, in the same order.
+    let mut totals: Vec<Cell> = Vec::new();
     for (si, l) in scenes.iter().enumerate() {
         progress("regions", si, scenes.len(), &l.scene.name);
         let cells = scene_cells(r, &l.scene, &l.poses(n, p.viewport), &combos)?;
-        let all = cells.iter().fold(Cell::default(), |mut a, c| {
-            a.regions += c.regions;
-            a.eyes += c.eyes;
-            a.missed += c.missed;
-            (a.kept, a.seen) = (a.kept + c.kept, a.seen + c.seen);
-            a.point_kept += c.point_kept;
-            a.point_seen += c.point_seen;
-            a.ms.extend(&c.ms);
-            a
-        });
+        let all = Cell::total(&cells);
         let ms = Percentiles::of(all.ms.clone());
         let _ = writeln!(
             r.md,
@@ -106,17 +113,11 @@ pub(super) fn section(r: &mut Report, scenes: &[Loaded]) -> Result<()> {
             ms.p50,
             ms.max
         );
+        totals.push(all);
         per_scene.push((l.scene.name.clone(), cells));
     }
-    let missed: usize = per_scene
-        .iter()
-        .flat_map(|(_, cells)| cells.iter().map(|c| c.missed))
-        .sum();
-    let least = per_scene
-        .iter()
-        .map(|(_, cells)| cells.iter().map(|c| c.regions).sum::<usize>())
-        .min()
-        .unwrap_or(0);
+    let missed: usize = totals.iter().map(|t| t.missed).sum();
+    let least = totals.iter().map(|t| t.regions).min().unwrap_or(0);
     r.targets.push(Target::bound(
         47,
         &format!(
@@ -129,7 +130,7 @@ pub(super) fn section(r: &mut Report, scenes: &[Loaded]) -> Result<()> {
         false,
         "",
     ));
-    sweep_table(r, &per_scene, &combos);
+    sweep_table(r, &per_scene, &totals, &combos);
     sweep_plot(r, &per_scene, &combos)
 }
 
@@ -191,7 +192,12 @@ fn scene_cells(
 }
 
 /// kept ÷ seen per drawn frame for every radius and turn, a column per scene.
-fn sweep_table(r: &mut Report, per_scene: &[(String, Vec<Cell>)], combos: &[(f32, f32)]) {
+fn sweep_table(
+    r: &mut Report,
+    per_scene: &[(String, Vec<Cell>)],
+    totals: &[Cell],
+    combos: &[(f32, f32)],
+) {
     let names: Vec<&str> = per_scene.iter().map(|(n, _)| n.as_str()).collect();
     let _ = writeln!(
         r.md,
@@ -208,15 +214,7 @@ fn sweep_table(r: &mut Report, per_scene: &[(String, Vec<Cell>)], combos: &[(f32
             .collect();
         let _ = writeln!(r.md, "| {radius} | {turn} | {} |", row.join(" | "));
     }
-    let point: Vec<String> = per_scene
-        .iter()
-        .map(|(_, cells)| {
-            let (k, s) = cells
-                .iter()
-                .fold((0, 0), |(k, s), c| (k + c.point_kept, s + c.point_seen));
-            format!("{:.2}", k as f64 / s.max(1) as f64)
-        })
-        .collect();
+    let point: Vec<String> = totals.iter().map(|t| format!("{:.2}", t.point())).collect();
     let _ = writeln!(r.md, "| point | – | {} |", point.join(" | "));
 }
 
