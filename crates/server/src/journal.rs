@@ -309,6 +309,11 @@ mod tests {
         .unwrap()
     }
 
+    /// The versions of the updates a journal gave back.
+    fn versions(rec: &Recovered) -> Vec<u64> {
+        rec.updates.iter().map(|u| u.0).collect()
+    }
+
     fn placed(version: u64) -> Placed {
         Placed {
             version,
@@ -340,17 +345,13 @@ mod tests {
         f.write_all(br#"{"version":3,"upd"#).unwrap();
         drop(f);
         let (mut j, rec) = state.journal("s", "c1").unwrap();
-        let versions: Vec<u64> = rec.updates.iter().map(|u| u.0).collect();
-        assert_eq!(versions, [1, 2]);
+        assert_eq!(versions(&rec), [1, 2]);
         assert_eq!(rec.updates[1].1, update(2, 2.0));
         // The torn line is gone: the next append follows the last whole one.
         j.append(3, &update(1, 3.0)).unwrap();
         drop(j);
         let (_, rec) = state.journal("s", "c1").unwrap();
-        assert_eq!(
-            rec.updates.iter().map(|u| u.0).collect::<Vec<_>>(),
-            [1, 2, 3]
-        );
+        assert_eq!(versions(&rec), [1, 2, 3]);
     }
 
     #[test]
@@ -363,14 +364,11 @@ mod tests {
         }
         drop(j);
         let (mut j, rec) = state.journal("s", "c1").unwrap();
-        assert_eq!(rec.updates.iter().map(|u| u.0).collect::<Vec<_>>(), [1, 2]);
+        assert_eq!(versions(&rec), [1, 2]);
         j.append(3, &update(1, 3.0)).unwrap();
         drop(j);
         let (_, rec) = state.journal("s", "c1").unwrap();
-        assert_eq!(
-            rec.updates.iter().map(|u| u.0).collect::<Vec<_>>(),
-            [1, 2, 3]
-        );
+        assert_eq!(versions(&rec), [1, 2, 3]);
     }
 
     #[test]
@@ -386,7 +384,7 @@ mod tests {
         drop(j);
         let (_, rec) = state.journal("s", "c1").unwrap();
         assert_eq!(rec.placed, placed(5), "bit for bit, infinity included");
-        assert_eq!(rec.updates.iter().map(|u| u.0).collect::<Vec<_>>(), [6]);
+        assert_eq!(versions(&rec), [6]);
     }
 
     #[test]
